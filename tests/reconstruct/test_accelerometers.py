@@ -635,3 +635,28 @@ def test_readings_faster_than_the_database_are_low_passed_before_the_grid(db):
     rec25 = A.AccelerometerReconstructor(db, 25)
     rec25.push(stream[1])
     np.testing.assert_array_equal(rec25._recent[-1], stream[1])
+
+
+def test_no_output_is_written_inside_a_knowledge_base(db, tmp_path):
+    """`clean x.bvh -o KB/x.bvh` wrote into an accelerometer knowledge base (`reconstruct --knowledge KB`), which
+    the next `reconstruct --knowledge KB` then refused ("it holds x.bvh, which a knowledge base save does not
+    write") or, rebuilt, would replace whole: every writer's guard refuses it in one line, as inside a database."""
+    import json
+
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.io.outputs import check_outputs
+    from mocapkit.reconstruct.accelerometers.knowledge import check_knowledge_base_output
+
+    kb = tmp_path / "kb"
+    A.knowledge_base(db, cache_dir=kb, progress=False)
+    for out in (kb / "x.bvh", kb / "sub" / "model.pt"):
+        with pytest.raises(MocapFormatError, match=r"refusing to write inside an accelerometer knowledge base "
+                                                   r"\(.*kb\), which `reconstruct --knowledge` replaces whole; "
+                                                   r"choose another folder"):
+            check_outputs([out], overwrite=True)
+    check_outputs([tmp_path / "x.bvh"])  # beside it is fine
+    other = tmp_path / "other"  # a knowledge.json that is not a mocapkit knowledge base's is no knowledge base
+    other.mkdir()
+    (other / "knowledge.json").write_text(json.dumps({"format": 1}))
+    check_outputs([other / "x.bvh"])
+    check_knowledge_base_output(kb)  # nothing was written there: it may still be replaced

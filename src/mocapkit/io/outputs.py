@@ -8,7 +8,8 @@ every path a command will write is checked against every path it reads:
 - no two outputs may be the same file;
 - an existing output file is replaced only when ``overwrite`` is true;
 - an output that exists and is a folder, or whose parent is a file, is refused;
-- an output inside a motion database folder (:func:`database_around`) is refused: the folder is ``db build``'s;
+- an output inside a folder mocapkit replaces whole (:func:`replaced_whole_around`: a motion database, an
+  accelerometer knowledge base) is refused: the folder is ``db build``'s or ``reconstruct --knowledge``'s;
 - missing parent folders are created only when the output is written
   (:func:`mocapkit.io.atomic_write` does that), never by the check.
 
@@ -46,9 +47,9 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_file_path", "check_outputs", "database_around", "same_file", "inside", "removed_on_failure",
-           "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders", "file_facts",
-           "input_facts", "other_input", "temp_prefix", "NAME_MAX"]
+__all__ = ["check_file_path", "check_outputs", "database_around", "replaced_whole_around", "same_file", "inside",
+           "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders",
+           "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -62,26 +63,52 @@ DATABASE_DESCRIPTION = "database.json"
 DATABASE_FORMAT = "mocapkit-motion-database"
 
 
-def database_around(path: os.PathLike | str) -> Path | None:
-    """The motion database folder that ``path`` would be written inside (its folder or any folder above it), or None.
+KNOWLEDGE_DESCRIPTION = "knowledge.json"
+KNOWLEDGE_FORMAT = 1  # knowledge.json's "format" (mocapkit.reconstruct.accelerometers.knowledge)
 
-    A file written there is refused by :func:`check_outputs`: nothing would be lost at once, but ``db build
-    --overwrite`` then refuses the folder (it holds a file a database save does not write), and a database replaced
-    whole would lose it. Only a ``database.json`` naming the format counts (a folder of takes may hold another one).
+# The folders mocapkit replaces whole, as (description file, says it is one, what it is, what replaces it): a file
+# written inside one would be refused by that command's next run (the folder holds a file its save does not write)
+# or lost with the folder. Found by their description file, as their own refusals find them.
+_WHOLE_FOLDERS = (
+    (DATABASE_DESCRIPTION, lambda meta: meta.get("format") == DATABASE_FORMAT, "a motion database folder",
+     "`db build --overwrite`"),
+    (KNOWLEDGE_DESCRIPTION, lambda meta: meta.get("format") == KNOWLEDGE_FORMAT and "sensors" in meta,
+     "an accelerometer knowledge base", "`reconstruct --knowledge`"),
+)
+
+
+def replaced_whole_around(path: os.PathLike | str) -> tuple[Path, str, str] | None:
+    """``(folder, what it is, what replaces it)`` for the folder mocapkit replaces whole that ``path`` would be
+    written inside (its folder or any folder above it), or None.
+
+    Those folders are a motion database (``db build --overwrite`` replaces it) and an accelerometer knowledge base
+    (``reconstruct --knowledge`` rebuilds it when its database changes): both are written staged and swapped in
+    whole (:func:`mocapkit.database_folder.write_staged`), and both refuse a folder holding a file their save does
+    not write. A file written there is refused by :func:`check_outputs`. Only a description file naming the format
+    counts (a folder of takes may hold another ``database.json``). A train run folder is not one of them: its
+    ``--overwrite`` replaces the model files, never the folder.
     """
     start = resolved(path).parent
     for folder in (start, *start.parents):
-        desc = folder / DATABASE_DESCRIPTION
-        if not desc.is_file():
-            continue
-        try:
-            with open(desc, encoding="utf-8") as fh:
-                meta = json.loads(fh.read(2**24))
-        except (OSError, ValueError):
-            continue
-        if isinstance(meta, dict) and meta.get("format") == DATABASE_FORMAT:
-            return folder
+        for name, says, what, how in _WHOLE_FOLDERS:
+            desc = folder / name
+            if not desc.is_file():
+                continue
+            try:
+                with open(desc, encoding="utf-8") as fh:
+                    meta = json.loads(fh.read(2**24))
+            except (OSError, ValueError):
+                continue
+            if isinstance(meta, dict) and says(meta):
+                return folder, what, how
     return None
+
+
+def database_around(path: os.PathLike | str) -> Path | None:
+    """The motion database folder that ``path`` would be written inside (its folder or any folder above it), or None
+    (:func:`replaced_whole_around`, databases only)."""
+    found = replaced_whole_around(path)
+    return found[0] if found is not None and found[1] == _WHOLE_FOLDERS[0][2] else None
 
 
 def same_file(a: os.PathLike | str, b: os.PathLike | str) -> bool:
@@ -165,10 +192,11 @@ def check_outputs(
             parent = parent.parent
         if parent.exists() and not parent.is_dir():
             raise MocapFormatError(out, f"cannot create it: {parent} is a file, not a folder")
-        db = database_around(out)
-        if db is not None:
-            raise MocapFormatError(out, f"refusing to write inside a motion database folder ({db}), which `db build "
-                                        "--overwrite` replaces whole; choose another folder")
+        whole = replaced_whole_around(out)
+        if whole is not None:
+            folder, what, by = whole
+            raise MocapFormatError(out, f"refusing to write inside {what} ({folder}), which {by} replaces whole; "
+                                        "choose another folder")
         if os.path.lexists(out) and not overwrite:  # a dangling link too
             raise MocapFormatError(out, f"already exists; {how} to replace it")
 

@@ -54,7 +54,7 @@ from ...database import MotionDatabase
 from ...database_folder import recover_leftovers, write_staged
 from ...errors import MocapFormatError
 from ...features import Sensor, default_sensors, find_up_axis, five_point_derivative, root_frame, virtual_accelerometers
-from ...io.outputs import resolved
+from ...io.outputs import KNOWLEDGE_DESCRIPTION, KNOWLEDGE_FORMAT, resolved
 from ...motion import Motion, Skeleton, unit_scale_cm
 from ...parallel import map_ordered
 from ...search.knn import KNNIndex
@@ -284,8 +284,8 @@ def _clip_block(clips: range, sensors, up, database: str) -> tuple:
 
 _ARRAYS = ("readings", "poses", "pose_mean", "pose_basis", "pose_coords", "velocities", "accelerations",
            "root_velocity", "yaw_rate", "root_height", "clip_ids")
-DESCRIPTION = "knowledge.json"
-_FORMAT = 1  # knowledge.json's "format"
+DESCRIPTION = KNOWLEDGE_DESCRIPTION
+_FORMAT = KNOWLEDGE_FORMAT  # knowledge.json's "format" (io.outputs refuses other outputs inside)
 
 
 def knowledge_base(db: MotionDatabase, sensors: Sequence[Sensor] | None = None, *, cache_dir=None,
