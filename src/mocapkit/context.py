@@ -542,6 +542,10 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     if len(paths) == 1 and _is_database(paths[0]):
         db = MotionDatabase.open(paths[0])
         db.info["label"] = f"the database {paths[0]}"
+        gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: said with the context's notes, not refused
+        if gaps:
+            said = db.info.get("notes")
+            db.info["notes"] = [*(said if isinstance(said, list) else ()), gaps]
         return db
     files = context_files(paths)
     optional = [f for f in files if f not in paths]  # found in a folder, not named

@@ -391,6 +391,7 @@ class MotionDatabase:
         self.info = dict(info or {})
         self._indexes: dict = {}
         self._digest = digest  # the folder's stored content digest; "" until computed
+        self._missing: int | None = None  # frames with a NaN pose (missing_frames), counted on first use
 
     # -- sizes and lookups ---------------------------------------------------------------
 
@@ -917,3 +918,33 @@ class MotionDatabase:
             "array_megabytes": round(nbytes / 2**20, 1),
             **({"licence": str(self.info["licence"])} if self.info.get("licence") else {}),
         }
+
+    # -- poses a database of an earlier mocapkit may hold --------------------------------------------
+
+    def missing_frames(self) -> int:
+        """How many of the database's frames hold a missing joint (a NaN rotation or root position).
+
+        ``db build`` refuses a take with gaps since 0.15.0, but mocapkit 0.14.0 and earlier stored such a take's
+        missing joints as NaN poses (and NaN features): a search leaves their clips out and a reconstruction may fail
+        on them. Read once, in blocks of 65,536 frames (an opened database's arrays are memory-mapped), and kept.
+        """
+        if self._missing is None:
+            n, step = 0, 1 << 16
+            for a in range(0, self.num_frames, step):
+                rot = np.asarray(self.rotations[a:a + step])
+                bad = np.isnan(rot.reshape(len(rot), -1)).any(axis=1)
+                bad |= np.isnan(np.asarray(self.root_positions[a:a + step])).any(axis=1)
+                n += int(np.count_nonzero(bad))
+            self._missing = n
+        return self._missing
+
+    def missing_note(self) -> str:
+        """One line for a ``note:``, naming the database and how many frames have missing joints (NaN poses an
+        earlier mocapkit kept: :meth:`missing_frames`) and that a rebuild drops them; "" when none has."""
+        n = self.missing_frames()
+        if not n:
+            return ""
+        name = self.path if self.path is not None else "the database"
+        return (f"{name}: {plural(n, 'frame')} of {self.num_frames} {'has' if n == 1 else 'have'} missing joints "
+                "(NaN), kept by mocapkit 0.14.0 or earlier; a search leaves their clips out and a reconstruction may fail: rebuilding it drops them "
+                "(`db build` now refuses a take with gaps: `mocapkit fill` it first)")

@@ -213,3 +213,35 @@ def test_search_says_when_fewer_segments_than_k_remain_with_and_without_json(tmp
     code, out, err = run("search", str(db_dir), query, "--k", "50", "--start", "0.5", "--end", "1.5", "--json")
     found = json.loads(out.strip().splitlines()[-1])
     assert code == 0 and 0 < len(found) < 50 and f"note: {len(found)} of the 50 matches asked for" in err
+
+
+def test_a_database_of_an_earlier_mocapkit_with_nan_poses_is_opened_with_a_note(tmp_path):
+    """mocapkit 0.14.0 put a take with gaps in a database as NaN poses (`db build` refuses such a take now): search,
+    clean --context and reconstruct opened it without a word. They open it still, and say in one `note:` line
+    naming the database how many frames have missing joints and that rebuilding drops them."""
+    import json
+
+    import numpy as np
+
+    from mocapkit.context import fit_context, resolve_context
+    from mocapkit.database import MotionDatabase
+
+    take = mocapkit.load(_db_sources()[1])
+    db_dir = MotionDatabase.build([take], executor="serial", progress=False).save(tmp_path / "db")
+    assert MotionDatabase.open(db_dir).missing_note() == ""  # a database built now has none
+    rot = np.load(db_dir / "rotations.npy", mmap_mode="r+")  # what 0.14.0 wrote for a take with a gap: NaN poses
+    rot[10:13, 5] = np.nan
+    rot.flush()
+    del rot
+    db = MotionDatabase.open(db_dir)
+    said = (f"{db_dir}: 3 frames of {db.num_frames} have missing joints (NaN), kept by mocapkit 0.14.0 or earlier; "
+            "a search leaves their clips out and a reconstruction may fail: rebuilding it drops them")
+    assert db.missing_frames() == 3 and db.missing_note().startswith(said)
+    code, out, err = run("search", str(db_dir), _db_sources()[1], "--k", "1", "--start", "1.5", "--end", "2.5")
+    assert code == 0 and f"note: {said}" in " ".join(out.split()) and "cost/frame" in out
+    code, out, err = run("search", str(db_dir), _db_sources()[1], "--k", "1", "--start", "1.5", "--end", "2.5",
+                         "--json")
+    assert code == 0 and len(json.loads(out.strip().splitlines()[-1])) == 1 and f"note: {said}" in err
+    assert sum(line.startswith("note: ") and "missing joints" in line for line in err.splitlines()) == 1
+    ctx, note = fit_context(take, resolve_context([db_dir]))  # clean --context DB: among the context's notes
+    assert ctx is not None and said in note

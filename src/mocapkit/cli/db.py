@@ -129,6 +129,7 @@ def search(
         raise MocapError(f"--method must be lng or dtw, got {method!r}")
     check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
+    gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: said, not refused (a rebuild drops them)
     m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit, unit_option="--unit")
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
@@ -148,9 +149,12 @@ def search(
              "held pose or a pause, not the motion)") if 0 < len(results) < k else None
     if as_json:  # the JSON alone on stdout; the note on stderr
         print(json.dumps([dict(r.as_dict(), start_s=r.start / db.fps, end_s=r.end / db.fps) for r in results]))
-        if fewer:
-            print(f"note: {fewer}", file=sys.stderr)
+        for note in (gaps, fewer):
+            if note:
+                print(f"note: {note}", file=sys.stderr)
         return
+    if gaps:
+        console.print(f"note: {gaps}")
     if not results:
         console.print("no match (try a larger --neighbors)")
         return
