@@ -2,6 +2,8 @@
 torch thread, errors and grad modes carried over."""
 
 import dataclasses
+import os
+import sys
 import threading
 
 import numpy as np
@@ -138,3 +140,28 @@ def test_a_forked_child_runs_parts_on_threads_of_its_own():
         child.kill()
     assert not alive, "the child waited for threads it does not have"
     assert queue.get(timeout=5) == [1500, 1500]
+
+
+def _rss() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's heaps")
+def test_freed_memory_is_handed_back():
+    """Arrays of a few MB freed into glibc's heap stay in the process (its mmap threshold rises to the largest block
+    freed): after the EBF's run on an 18-minute take about 240 MB; release_freed_memory hands them back."""
+    import ctypes
+
+    try:
+        ctypes.CDLL(None).malloc_trim
+    except AttributeError:
+        pytest.skip("no malloc_trim (not glibc)")
+    np.ones(24 << 17)  # a 24 MiB block freed: glibc's threshold rises, the next ones come from its heap
+    blocks = [np.ones(4 << 17) for _ in range(24)]  # 24 x 4 MiB, every page written
+    keep = blocks[-1]
+    del blocks  # freed, all but the last: below it, glibc cannot shrink its heap by itself
+    before = _rss()
+    assert threads.release_freed_memory()
+    assert before - _rss() > 40 << 20  # most of the 92 MiB freed
+    assert keep.sum() == 4 << 17
