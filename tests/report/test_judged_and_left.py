@@ -9,6 +9,8 @@ under "the changes above are what the cleaning did about them" with no word of w
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -170,3 +172,25 @@ def test_a_flag_a_break_confirms_reads_as_an_animators_sentence():
 
     assert plain_sentence("", ["a digression its own break confirms"]) == (
         "The joint breaks away from how it moves in the similar moments of the take.")
+
+
+def test_a_flag_changed_in_part_says_the_frames_left_and_why():
+    """User trial U2 (40 Bandai Namco takes through clean-batch): on raise-up-right-hand_active_060 with a flip
+    (`mocapkit corrupt --kind flip --seed 2`), detection flags UpperLeg_R over frames 7-26; repair turns the
+    turn-over at 14-26 back and its guard gives 7-13 back as they were (the entry would join the take less
+    smoothly). The report's flag said "changed: see the changes above" and the batch line "44 flagged samples,
+    31 repaired samples; 1 flagged run left as it was (Neck 25-30: ...)": 7 flagged samples left with no word.
+    The flag now says which frames were left and why, and the line names them, so the counts add up."""
+    from mocapkit.cleaning.flags_left import flag_outcomes, left_line
+
+    take = mocapkit.load(Path(__file__).parents[1] / "data" / "dataset-2_raise-up-right-hand_active_060_flip.bvh")
+    res = clean(take, steps=("detect", "repair"))
+    [leg] = [f for f in flag_outcomes(res) if f["joint"] == "UpperLeg_R"]
+    j = take.skeleton.index("UpperLeg_R")
+    assert (leg["first"], leg["last"]) == (7, 26) and res.changed[14:27, j].all() and not res.changed[7:14, j].any()
+    assert leg["left"].startswith("changed in part: frames 7-13 left as they were: the repair was not better "
+                                  "than the take (its entry joins the take less smoothly")
+    line = left_line(res)
+    assert line.startswith("2 flagged runs left as they were (UpperLeg_R 7-13, Neck 25-30: ")
+    left = [f["left_frames"] for f in flag_outcomes(res) if f["left"]]
+    assert int(res.flags.sum()) - int((res.flags & res.changed).sum()) == sum(b - a + 1 for a, b in left)

@@ -21,9 +21,12 @@ __all__ = ["flag_outcomes", "left_line"]
 
 def flag_outcomes(result) -> list[dict]:
     """:func:`~mocapkit.cleaning.decisions.flag_segments` of ``result``, each with ``"left"``: "" where a step
-    changed some of its cells, else why it was left as it was, in a reader's words (the repair guard's reason
+    changed its cells, else why it was left as it was, in a reader's words (the repair guard's reason
     from the result's notes, a turn-over's reason for being left (:mod:`~mocapkit.cleaning.ssa.flips`), or that
-    repair did not run).
+    repair did not run). A flag changed in part, where the guard gave back a run inside it (a turn-over turned
+    back, the frames before it left), says which frames were left and why (``"changed in part: frames 7-13 left
+    as they were: the repair was not better than the take (...)"``): "changed" alone read as all of it changed.
+    ``"left_reason"`` is the short why, ``"left_frames"`` ``[first, last]`` of the frames left (empty where none).
 
     ``result`` a :class:`~mocapkit.cleaning.clean_record.CleanResult` (a fresh one or one loaded from its record:
     the notes keep the guard's runs).
@@ -35,15 +38,24 @@ def flag_outcomes(result) -> list[dict]:
     out = []
     for seg in flag_segments(result):
         j, a, b = seg["joint_index"], seg["first"], seg["last"]
-        left = ""
+        left, reason, span = "", "", (a, b)
         turns = [w for js, f0, f1, w in flips if seg["joint"] in js and f0 <= b and a <= f1]
         if not changed[a:b + 1, j].any() and turns:
-            left = f"left as it was: a half turn in one frame and back, not turned back ({turns[0]})"
+            reason = "a half turn in one frame and back, not turned back"
+            left = f"left as it was: {reason} ({turns[0]})"
         elif not changed[a:b + 1, j].any():
             why = [r.reason for r in runs if r.joint == seg["joint"] and r.start <= b and a < r.end]
-            left = ("left as it was: the repair was not better than the take" + (f" ({why[0]})" if why else "")
-                    if repaired else "left as it was: the repair step did not run")
-        out.append({**seg, "left": left})
+            reason = "the repair was not better than the take" if repaired else "the repair step did not run"
+            left = f"left as it was: {reason}" + (f" ({why[0]})" if why and repaired else "")
+        else:  # changed in part: a guard's run inside the flag was given back, and the rest of the flag was changed
+            kept = [(r, max(a, r.start), min(b, r.end - 1)) for r in runs if r.joint == seg["joint"]
+                    and r.start <= b and a < r.end and not changed[max(a, r.start):min(b, r.end - 1) + 1, j].any()]
+            if kept:
+                r, f0, f1 = kept[0]
+                reason, span = "the repair was not better than the take", (f0, f1)
+                frames = f"frame {f0}" if f0 == f1 else f"frames {f0}-{f1}"
+                left = f"changed in part: {frames} left as {'it was' if f0 == f1 else 'they were'}: {reason} ({r.reason})"
+        out.append({**seg, "left": left, "left_reason": reason, "left_frames": list(span) if left else []})
     return out
 
 
@@ -54,8 +66,11 @@ def left_line(result) -> str:
     left = [f for f in flag_outcomes(result) if f["left"]]
     if not left:
         return ""
-    named = [f"{f['joint']} {f['first']}-{f['last']}" for f in left[:3]] + \
+    # the frames left, not the flag's: a flag changed in part names only its run given back, so the counts add up
+    # (flagged - repaired = the samples of the runs named)
+    spans = [f.get("left_frames") or (f["first"], f["last"]) for f in left]
+    named = [f"{f['joint']} {a}-{b}" for f, (a, b) in zip(left[:3], spans)] + \
         ([f"{len(left) - 3} more"] if len(left) > 3 else [])
-    why = {f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left}
+    why = {f.get("left_reason") or f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left}
     return (f"{len(left)} flagged run{' left as it was' if len(left) == 1 else 's left as they were'} ({', '.join(named)}: "
             f"{'; '.join(sorted(why))})")
