@@ -88,8 +88,8 @@ __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request",
 
 DEFAULT_PATTERNS = ("*.bvh", "*.amc", "*.npz", "*.c3d", "*.trc")
 #: How a refusal names an option to its caller: Python's keywords, or (``flags``) the command line's flags.
-SAID = {False: {"overwrite": "overwrite=True", "asf": "asf=", "amc_fps": "amc_fps=", "unit": "unit="},
-        True: {"overwrite": "--overwrite", "asf": "--asf", "amc_fps": "--amc-fps", "unit": "--unit"}}
+SAID = {False: {"overwrite": "overwrite=True", "asf": "asf=", "amc_fps": "amc_fps=", "unit": "unit=", "jobs": "jobs="},
+        True: {"overwrite": "--overwrite", "asf": "--asf", "amc_fps": "--amc-fps", "unit": "--unit", "jobs": "--jobs"}}
 
 
 
@@ -692,6 +692,7 @@ def clean_batch(
     on_context: Callable[[str], None] | None = None,
     joint_map: dict | None = None,
     flags: bool = False,
+    jobs: int | None = None,
 ) -> BatchSummary:
     """Clean every take under ``in_dir`` into the mirrored layout under ``out_dir`` (module docstring).
 
@@ -719,6 +720,8 @@ def clean_batch(
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
     ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
+    ``jobs``: how many takes local processes clean at once (default: one per core); a machine shared overnight
+    keeps the rest of its cores. Only for local processes (``executor`` None or ``"processes"``).
     ``flags``: refusals name the command line's flags (``--overwrite``, ``--asf``, ``--executor``, ``--max-gap``),
     not Python's keywords (``overwrite=True``, ``asf=``, ``executor=``, ``max_gap_s=``: :data:`SAID`).
     A take that fails on a full disk, a used-up quota or a read-only file system stops the batch
@@ -730,7 +733,7 @@ def clean_batch(
     from .cleaning.pipeline import STEPS, check_noise_deg, parse_steps
     from .context import is_off
     from .io.outputs import inside, missing_folders, resolved
-    from .parallel import check_executor, describe_executor, map_ordered
+    from .parallel import check_executor, check_jobs, describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
     if not in_dir.is_dir():
@@ -741,6 +744,7 @@ def clean_batch(
         raise MocapError(f"format must be auto, bvh, amc or npz, got {fmt!r}")
     executor_option = "--executor" if flags else "executor="
     check_executor(executor, option=executor_option)
+    check_jobs(jobs, executor, SAID[flags]["jobs"], executor_option)
     try:
         steps = list(parse_steps(steps or STEPS))
     except ValueError as exc:
@@ -763,7 +767,7 @@ def clean_batch(
         check_asf(asf, inputs, amc_fps, names=(SAID[flags]['asf'], SAID[flags]['amc_fps']))
         check_unit(unit, SAID[flags]["unit"])
     plans, renamed = _plan(inputs, in_dir, out_dir, fmt, report, png)
-    summary = BatchSummary(executor=describe_executor(executor), renamed=[str(p) for p in renamed],
+    summary = BatchSummary(executor=describe_executor(executor, jobs), renamed=[str(p) for p in renamed],
                            earlier=[str(p) for p in earlier if not (below and resolved(p) == resolved(out_dir))])
     todo, stale, again = [], [], {}
     request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit, joint_map)
@@ -792,7 +796,7 @@ def clean_batch(
         raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use {SAID[flags]['overwrite']} to clean "
                                             f"it again{more}")
     # every path absolute: a remote Dask worker resolves a relative one against its own working folder
-    jobs = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
+    work = [{"input": _abs(inp), "output": _abs(files["output"]), "steps": steps,
              "context": [str(c) if is_off(c) else _abs(c) for c in ctx],  # 'none' stays a word
              "threshold": float(threshold), "drifts": bool(drifts), "joint_map": joint_map,
              "models": {k: _abs(v) if Path(v).exists() else str(v) for k, v in (models or {}).items()} or None,
@@ -836,10 +840,10 @@ def clean_batch(
         sweep(expected)
         finished = False
         try:
-            if jobs:
+            if work:
                 mark(out_dir, in_dir)
-            rows = map_ordered(_batch_job, jobs, executor=executor, progress=progress, desc="clean",
-                               on_result=finished_take, option=executor_option) if jobs else []
+            rows = map_ordered(_batch_job, work, executor=executor, progress=progress, desc="clean", max_workers=jobs,
+                               on_result=finished_take, option=executor_option) if work else []
             finished = True
         except BaseException:  # an interrupt: a take written whose row never came is said from its record
             _tell_written(todo, said, request, markers, tell)

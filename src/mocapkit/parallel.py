@@ -62,7 +62,7 @@ from .progress import bar_disabled
 from .errors import MocapError
 from .interrupts import interrupts_held
 
-__all__ = ["map_ordered", "describe_executor", "check_executor", "executor_said", "owner_alive", "unblock_sigterm"]
+__all__ = ["map_ordered", "describe_executor", "check_executor", "check_jobs", "executor_said", "owner_alive", "unblock_sigterm"]
 
 EXECUTOR_NAMES = ("processes", "serial", "dask")
 _ADDRESS_RE = re.compile(r"^tcp://(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})/?$")
@@ -74,10 +74,14 @@ _OWNER_PID: int | None = None  # set in local pool workers: the pid of the proce
 _FORWARD_S = 0.5  # seconds a local worker waits before passing a SIGTERM it took on to the process that started it
 
 
-def describe_executor(executor) -> str:
-    """A short human-readable name of where :func:`map_ordered` will run."""
+def describe_executor(executor, max_workers: int | None = None) -> str:
+    """A short human-readable name of where :func:`map_ordered` will run; ``max_workers``: the local processes
+    it may use at once (:func:`check_jobs`; one runs the work in this process, as :func:`map_ordered` does)."""
     if executor is None or executor == "processes":
-        return f"local processes ({os.cpu_count() or 1} cores)"
+        cores = os.cpu_count() or 1
+        if max_workers == 1 or cores == 1:
+            return "this process" if max_workers == 1 else "local processes (1 core)"
+        return f"local processes ({max_workers} at once, {cores} cores)" if max_workers else f"local processes ({cores} cores)"
     if isinstance(executor, str):
         return "this process" if executor == "serial" else f"dask ({executor})"
     return type(executor).__name__
@@ -90,6 +94,20 @@ def executor_said(option: str, spec=None) -> str:
     if spec is None:
         return option
     return f"{option}{spec!r}" if option.endswith("=") else f"{option} {spec}"
+
+
+def check_jobs(jobs, executor, option: str = "jobs=", executor_option: str = "executor=") -> None:
+    """Refuse, in one line naming ``option``, a number of local processes ``jobs`` that is not a whole number
+    of at least 1, or one given with an ``executor`` other than local processes (``None``, ``"processes"``):
+    a Dask cluster has its own workers, and ``"serial"`` is one process. None (one process per core) passes."""
+    if jobs is None:
+        return
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs < 1:
+        raise MocapError(f"{option} must be a whole number of processes, at least 1, got {jobs!r}")
+    if executor not in (None, "processes"):
+        has = "cleans one take at a time in this process" if executor == "serial" else "has workers of its own"
+        raise MocapError(f"{option} sets how many local processes clean at once; {executor_option} {executor} "
+                         f"{has} (leave out one of the two)")
 
 
 def check_executor(executor, timeout: float = _PROBE_S, option: str = "executor="):

@@ -356,6 +356,11 @@ def clean_batch(
              "(docs/guide/cleaning.md).",
     ),
     executor: Optional[str] = executor_option("takes are cleaned"),
+    jobs: Optional[int] = typer.Option(
+        None, "--jobs", metavar="N",
+        help="Takes cleaned at once on local processes (default: one per core). --jobs 1 cleans them one by one "
+             "in this process, leaving the other cores free.",
+    ),
     report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
@@ -413,7 +418,7 @@ def clean_batch(
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error, zeros_as_gaps=zeros_as_gaps,
                             noise_deg=noise_deg, on_row=None if as_json else print_row,
-                            on_context=print_context if counted else None, joint_map=jm, flags=True)
+                            on_context=print_context if counted else None, joint_map=jm, flags=True, jobs=jobs)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")
