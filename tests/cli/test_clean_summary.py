@@ -47,7 +47,7 @@ def test_the_untouched_share_says_the_frames_not_judged(tmp_path, capsys):
     out = capsys.readouterr().out
     line = next(ln for ln in out.splitlines() if ln.startswith("wrote "))
     assert re.search(r"% untouched; 19 of 75 frames not judged; 18 more frames judged on some joints only: no similar "
-                     r"motion in the take or its context\)$", line), line
+                     r"motion in the take \(judged against itself alone\)\)$", line), line
     assert "37 frames have joints that no neighbour word judges (19 of them no joint at all)" in out  # detect agrees
 
 

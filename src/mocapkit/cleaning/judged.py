@@ -54,7 +54,10 @@ def not_judged(detection) -> tuple[int, int]:
 def not_judged_note(detection, num_frames: int) -> str:
     """``"509 of 683 frames not judged: no similar motion in the take or its context"`` (and how many more are
     judged on some joints only); "" where detection judged every analysed joint of every frame, or did not run
-    (``detection`` None). ``num_frames``: the take's."""
+    (``detection`` None). ``num_frames``: the take's. A take judged against itself alone (no context given, or
+    one of another rig, as the bundled default context is for every rig but the Acclaim one: its
+    ``context_clips`` hold the take only) reads "no similar motion in the take (judged against itself alone)":
+    "or its context" told a studio batching its own rig that a context had been searched."""
     if detection is None:
         return ""
     none, some = not_judged(detection)
@@ -66,4 +69,6 @@ def not_judged_note(detection, num_frames: int) -> str:
     if some:
         parts.append(f"{some} {'more ' if none else ''}{'frame' if some == 1 else 'frames'} judged on some joints only"
                      + ("" if none else f" (of {num_frames})"))
-    return "; ".join(parts) + ": no similar motion in the take or its context"
+    alone = len(getattr(detection, "context_clips", None) or ((), ())) == 1  # clip 0 is the take itself
+    return "; ".join(parts) + (": no similar motion in the take (judged against itself alone)" if alone
+                               else ": no similar motion in the take or its context")
