@@ -61,6 +61,18 @@ def test_the_record_says_which_decisions_wrote_the_output(decided):
                                   result=res)["decisions"]
 
 
+def test_info_on_the_record_says_its_output_was_decided(decided):
+    """User trial U2: after `clean --decisions` over a batch output, `info` on its record said "changed 31 joint
+    samples" with no word that the output beside it holds only the accepted changes (22 on that take)."""
+    d, takes, out, decisions, rejected = decided
+    code, said, err = run("info", out / "a.clean.npz")
+    assert code == 0, err
+    assert (f"decided  its output was then written with only the changes {decisions} accepts (clean --decisions); "
+            "the counts here are the cleaning reviewed") in said
+    code, said, err = run("info", out / "b.clean.npz")  # the take not decided: no such row
+    assert code == 0 and "\ndecided " not in said
+
+
 @pytest.mark.parametrize("overwrite", [False, True])
 def test_a_later_batch_keeps_the_decided_take(decided, overwrite):
     d, takes, out, decisions, _ = decided

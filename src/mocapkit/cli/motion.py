@@ -346,7 +346,7 @@ def _info_of_own_file(path: Path) -> bool:
                       ("frames", str(res.num_frames)), ("joints", str(len(res.joint_names))),
                       ("changed", f"{plural(int(res.changed.sum()), 'joint sample')} (filled {int(res.filled.sum())}, "
                                   f"repaired {int(res.repaired.sum())}, denoised {int(res.denoised.sum())})"),
-                      ("flagged", plural(int(res.flags.sum()), "joint sample"))])
+                      ("flagged", plural(int(res.flags.sum()), "joint sample"))] + _decided_rows(res.params))
         for line in res.summary():
             console.print(f"  {line}")
         return True
@@ -451,6 +451,17 @@ def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
                       ("input folder", str(doc.get("input")))])
         return True
     return False
+
+
+def _decided_rows(params: dict | None) -> list[tuple[str, str]]:
+    """The ``decided`` row of a record whose output was then written by ``clean --decisions`` over it in place
+    (:mod:`mocapkit.batch_decided`): the counts above it are the cleaning reviewed, not the output beside it,
+    which holds only the accepted changes; without the row they read as what the output holds."""
+    entry = (params or {}).get("decided")
+    if not isinstance(entry, dict) or not entry.get("decisions"):
+        return []
+    return [("decided", f"its output was then written with only the changes {entry['decisions']} accepts "
+                        "(clean --decisions); the counts here are the cleaning reviewed")]
 
 
 def _describe_checkpoint(path: Path) -> bool:
