@@ -71,6 +71,8 @@ def left_line(result) -> str:
     spans = [f.get("left_frames") or (f["first"], f["last"]) for f in left]
     named = [f"{f['joint']} {a}-{b}" for f, (a, b) in zip(left[:3], spans)] + \
         ([f"{len(left) - 3} more"] if len(left) > 3 else [])
-    why = {f.get("left_reason") or f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left}
+    # each reason once, in the order of the runs named: sorted, "UpperLeg_R 7-13, Neck 25-30: a half turn ...; the
+    # repair was not better" paired the leg with the neck's reason
+    why = dict.fromkeys(f.get("left_reason") or f["left"].split(" (")[0].removeprefix("left as it was: ") for f in left)
     return (f"{len(left)} flagged run{' left as it was' if len(left) == 1 else 's left as they were'} ({', '.join(named)}: "
-            f"{'; '.join(sorted(why))})")
+            f"{'; '.join(why)})")
