@@ -74,3 +74,22 @@ def test_an_integer_c3d_is_written_back_as_its_own_16_bit_numbers(shared_data, t
     other = read_c3d(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")  # another trial: not rounded
     out = save_markers(other, tmp_path / "other.c3d", like=path)
     assert struct.unpack_from("<f", out.read_bytes(), 12)[0] < 0
+
+
+def test_a_c3d_that_states_no_unit_is_written_with_one_and_a_note_says_so(shared_data, tmp_path):
+    # Trial with C3D captures: cleaning a C3D without POINT:UNITS (Motion Lab Systems' dynamic.c3d) wrote
+    # `POINT:UNITS mm` without a word. The unit the take was read in is written (leaving it out would lose a unit
+    # given with --unit and make every later reader guess again), and one note says what was assumed and why.
+    from mocapkit.io import load_markers, marker_notes, save_markers
+
+    path = shared_data / "c3d_markers" / "dynamic.c3d"
+    for given, why in ((None, "inferred from the marker distances; --unit sets it"), ("mm", "given with --unit")):
+        take = load_markers(path, units=given)
+        assert "UNITS" not in take.source.parameters["POINT"] and take.units_from != "file"
+        out = tmp_path / "out.c3d"
+        notes = marker_notes(take, out, path)
+        assert f"{out}: POINT:UNITS mm written, the unit the take was read in ({why}); {path} states no length unit" \
+            in notes, notes
+    back = read_c3d(save_markers(take, out))
+    assert back.units == "mm" and back.units_from == "file"  # what the note says is what the file states
+    assert not any("POINT:UNITS" in n for n in marker_notes(back, tmp_path / "again.c3d", out))  # stated: no note

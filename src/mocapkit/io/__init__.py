@@ -230,6 +230,8 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
                          f"{inp if inp is not None else 'the input'} stores them: a sample the cleaning changed or "
                          f"filled is rounded to the nearest step ({step / 2:.2g} {markers.units} at most), every "
                          "other one is the input's own number")
+    if kind == "c3d" and markers.units_from != "file":
+        notes.append(_stated_unit_note(markers, path, inp))
     if kind == "c3d" and (source is None or source.format != "c3d"):
         note = _float32_note(markers, path, inp)
         if note:
@@ -249,6 +251,19 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
         notes.append(f"{path}: not written, as {fmt} cannot hold them: the input's {what}"
                      + (f" ({keep})" if keep else ""))
     return notes
+
+
+def _stated_unit_note(markers: MarkerSet, path: Path, inp) -> str:
+    """The line saying that a C3D at ``path`` states the length unit ``markers`` were read in (POINT:UNITS),
+    where ``inp`` stated none (``markers.units_from`` "given" or "data": :func:`~mocapkit.markerset.marker_units`).
+
+    The unit is written rather than left out because writing it loses nothing and leaving it out would: a unit
+    given with --unit would be lost, and every later reader would guess again (C3D readers commonly assume mm;
+    mocapkit infers it from the marker distances), while the take's coordinates are in the unit written. The
+    line says so, that the parameter the output gains is seen and explained, not added silently."""
+    why = "given with --unit" if markers.units_from == "given" else "inferred from the marker distances; --unit sets it"
+    return (f"{path}: POINT:UNITS {markers.units} written, the unit the take was read in ({why}); "
+            f"{inp if inp is not None else 'the input'} states no length unit")
 
 
 def _float32_note(markers: MarkerSet, path: Path, inp) -> str | None:
