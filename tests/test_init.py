@@ -196,17 +196,23 @@ def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does
     shutil.copy(samples.path("12.asf"), tmp_path / "bad.asf")
     bad, _, _ = corrupt.real_errors(mocapkit.load(samples.path("12_walk.amc")), n_errors=4, seed=11)
     inp = mocapkit.save(bad, tmp_path / "bad.amc")
-    note = "frame numbers count from 0, the take's first frame; {} numbers its frames from 1: its frame 11 is frame 10 here"
+    note = "frame numbers count from 0, the take's first frame, which is {}'s frame 1: its frame 11 is frame 10 here"
     lines = mocapkit.clean(inp, steps="detect").summary()
     assert lines[-1] == note.format("bad.amc"), lines
     assert main(["clean", str(inp), "-o", str(tmp_path / "o.amc"), "--steps", "detect"]) == 0
     assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
-    assert not any("numbers its frames" in x for x in mocapkit.clean(bad, steps="detect").summary())
+    assert not any("is frame 10 here" in x for x in mocapkit.clean(bad, steps="detect").summary())
     c3d = samples.path("Eb015pr.c3d")
     lines = mocapkit.clean(c3d).summary()
     assert lines[-1] == note.format("Eb015pr.c3d"), lines
     assert main(["clean", str(c3d), "-o", str(tmp_path / "markers.c3d")]) == 0
     assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
+    # a part of the take: its frame 0 is the capture's frame 101 (it said "Eb015pr numbers its frames from 101",
+    # though Eb015pr.c3d numbers them from 1)
+    part = mocapkit.io.load_markers(c3d)[100:]
+    lines = mocapkit.clean(part, steps="detect").summary()
+    assert lines[-1] == ("frame numbers count from 0, the take's first frame, which is Eb015pr's frame 101: its frame "
+                         "111 is frame 10 here"), lines
 
 
 def test_clean_takes_the_noise_level_the_amc_rate_and_the_unit_as_the_cli_does(tmp_path):

@@ -801,13 +801,15 @@ def frame_note(take: str = "", first: int | None = None) -> str:
     """How the frame numbers of changes, flags and ids relate to the input file's own.
 
     They are 0-based indexes into the take (frame 0 is its first frame) whatever the file says: the
-    change ids of decisions files keep them. ``first``: the number the file ``take`` gives its first
+    change ids of decisions files keep them. ``first``: the number the file ``take`` gives the take's first
     frame (an AMC's, a TRC's ``Frame#``, a C3D's first frame; None for a file that does not number
-    them, :func:`mocapkit.io.takes.file_first_frame`), said when it is not 0.
+    them, :func:`mocapkit.io.takes.file_first_frame`), said when it is not 0. The line names the capture's
+    frame that frame 0 is, not where the file starts counting: a part of a take (``markers[100:]`` of
+    Eb015pr.c3d, which numbers its frames from 1) starts at its frame 101.
     """
     text = "frame numbers count from 0, the take's first frame"
     if first is not None and first != 0:
-        text += f"; {take or 'the input'} numbers its frames from {first}: its frame {first + 10} is frame 10 here"
+        text += (f", which is {take or 'the input'}'s frame {first}: its frame {first + 10} is frame 10 here")
     return text
 
 
