@@ -245,3 +245,12 @@ def test_a_database_of_an_earlier_mocapkit_with_nan_poses_is_opened_with_a_note(
     assert sum(line.startswith("note: ") and "missing joints" in line for line in err.splitlines()) == 1
     ctx, note = fit_context(take, resolve_context([db_dir]))  # clean --context DB: among the context's notes
     assert ctx is not None and said in note
+    # reconstruct failed on them with numpy's words after the note ("...005_120.amc: Eigenvalues did not converge"):
+    # now one line naming the database and the rebuild, exit 2, nothing written
+    out_file = tmp_path / "r.npz"
+    code, out, err = run("reconstruct", "--db", str(db_dir), "-o", str(out_file), "--markers", _db_sources()[2])
+    assert code == 2 and not out_file.exists() and "note:" not in out + err, (out, err)
+    assert one_error_line(err) and (f"mocapkit: error: {db_dir}: 3 frames of {db.num_frames} have missing joints (NaN, "
+                                    "kept by mocapkit 0.14.0 or earlier) and the reconstruction failed on them; rebuild "
+                                    "the database with `mocapkit db build` (`mocapkit fill` a take with gaps first); "
+                                    "nothing written") in " ".join(err.split()), err

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 from typing import Optional
 
@@ -122,6 +121,16 @@ def _sensors_named(names, db, path: Path):
     return [table[n] for n in names]
 
 
+def _nan_database_line(db, db_dir: Path) -> str:
+    """The one line that refuses a reconstruction which failed on, or returned, the NaN poses a database of mocapkit
+    0.14.0 or earlier kept for a take with gaps (:meth:`~mocapkit.database.MotionDatabase.missing_frames`): numpy's
+    "Eigenvalues did not converge" under --markers, NaN frames under --ssg and --accelerometers. Nothing is written."""
+    n = db.missing_frames()
+    return (f"{db_dir}: {plural(n, 'frame')} of {db.num_frames} {'has' if n == 1 else 'have'} missing joints (NaN, "
+            "kept by mocapkit 0.14.0 or earlier) and the reconstruction failed on them; rebuild the database with "
+            "`mocapkit db build` (`mocapkit fill` a take with gaps first); nothing written")
+
+
 def reconstruct(
     db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
     out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
@@ -189,11 +198,7 @@ def reconstruct(
     if not inp.is_file():  # as every reader says it (the CSV reader would say "cannot read the file: [Errno 2] ...")
         raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
     db = MotionDatabase.open(db_dir)
-    if db.missing_note():  # NaN poses an earlier mocapkit kept: said now, before the work they may fail, not refused
-        if as_json:  # the JSON alone on stdout
-            print(f"note: {db.missing_note()}", file=sys.stderr)
-        else:
-            console.print(f"note: {db.missing_note()}")
+    gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: a note after a result, one error line if it fails
     unseen: list[str] = []
     if kind == "accelerometers":
         from ..reconstruct import accelerometers as acc
@@ -260,8 +265,12 @@ def reconstruct(
             else:
                 from ..reconstruct import ssg as method
             result = method.reconstruct(pos, joints, db, fps, skeleton=performer, progress=not as_json)
-    except ValueError as exc:
+    except ValueError as exc:  # numpy's LinAlgError ("Eigenvalues did not converge") is one
+        if gaps:
+            raise MocapError(_nan_database_line(db, db_dir)) from None
         raise MocapError(f"{inp}: {exc}") from None
+    if gaps and result.missing().any():  # NaN poses taken from the database: not written, not even to an .npz
+        raise MocapError(_nan_database_line(db, db_dir))
     report, errors = "", {}
     if ref is not None:
         check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
@@ -297,6 +306,8 @@ def reconstruct(
     if isinstance(source, Motion) and not source.skeleton.is_compatible(result.skeleton):
         notes.append(f"the body is the database's skeleton ({result.skeleton.num_joints} joints), not "
                      f"{inp.name}'s: the sensors' readings come from any rig, the poses from the database")
+    if gaps:  # the result is whole, but the database still holds the NaN poses a rebuild drops
+        notes.append(gaps)
     if db.info.get("licence"):  # the poses are the database's takes': their terms hold for the output
         notes.append(f"the poses come from {db_dir}, built from takes under {db.info['licence']}: so is {out.name}")
     _write(result, out, asf_file, overwrite, kind, db.info.get("licence"))
