@@ -288,28 +288,36 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
     return stored, scales, written, float(gen[0])
 
 
-def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
-    """``(byte offset of its first value, type, number of values)`` of parameter GROUP:NAME in a C3D ezc3d wrote
-    (Intel byte order), or None. Types: -1 text, 1 byte, 2 16-bit integer, 4 float."""
+def _records(data):
+    """Yield ``(id, LABEL, start, at, next)`` for each group (id < 0) and parameter record of the parameter
+    section of a C3D ezc3d wrote (Intel byte order), in file order: ``start`` the record's first byte,
+    ``at`` its offset-to-next word, ``next`` that word's value (0 or less on the last record)."""
     i = (data[0] - 1) * BLOCK + 4
-    groups: dict[int, str] = {}
-    found = []
     while i + 4 <= len(data):
         nlen, gid = abs(struct.unpack_from("b", data, i)[0]), struct.unpack_from("b", data, i + 1)[0]
         if nlen == 0 or gid == 0:
-            break
+            return
         label = bytes(data[i + 2:i + 2 + nlen]).decode("latin-1").upper()
         at = i + 2 + nlen
         nxt, = struct.unpack_from("<h", data, at)
+        yield gid, label, i, at, nxt
+        if nxt <= 0:
+            return
+        i = at + nxt
+
+
+def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
+    """``(byte offset of its first value, type, number of values)`` of parameter GROUP:NAME in a C3D ezc3d wrote
+    (Intel byte order), or None. Types: -1 text, 1 byte, 2 16-bit integer, 4 float."""
+    groups: dict[int, str] = {}
+    found = []
+    for gid, label, _, at, _ in _records(data):
         if gid < 0:
             groups[-gid] = label
         elif label == name.upper():
             typ, ndim = struct.unpack_from("b", data, at + 2)[0], data[at + 3]
             dims = data[at + 4:at + 4 + ndim]
             found.append((gid, (at + 4 + ndim, typ, int(np.prod(dims)) if ndim else 1)))
-        if nxt <= 0:
-            break
-        i = at + nxt
     return next((where for gid, where in found if groups.get(gid) == group.upper()), None)
 
 
@@ -362,25 +370,15 @@ def put_texts(data: bytearray, group: str, name: str, values: list[str]) -> byte
     first 255 of more per-point texts, which ezc3d writes blank
     (:func:`text_chunks`).
     """
-    i = (data[0] - 1) * BLOCK + 4
     groups: dict[int, str] = {}
-    found, last = None, None
-    while i + 4 <= len(data):
-        nlen, gid = abs(struct.unpack_from("b", data, i)[0]), struct.unpack_from("b", data, i + 1)[0]
-        if nlen == 0 or gid == 0:
-            break
-        label = bytes(data[i + 2:i + 2 + nlen]).decode("latin-1").upper()
-        at = i + 2 + nlen
-        nxt, = struct.unpack_from("<h", data, at)
+    found, last = [], None
+    for gid, label, start, at, nxt in _records(data):
         if gid < 0:
             groups[-gid] = label
         elif label == name.upper():
-            found = (found or []) + [(gid, i, at, nxt)]
+            found.append((gid, start, at, nxt))
         last = (gid, at)
-        if nxt <= 0:
-            break
-        i = at + nxt
-    hit = next((f for f in found or [] if groups.get(f[0]) == group.upper()), None)
+    hit = next((f for f in found if groups.get(f[0]) == group.upper()), None)
     if hit is None or last is None:
         return data
     _, start, at, nxt = hit
