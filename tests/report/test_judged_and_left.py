@@ -195,3 +195,22 @@ def test_a_flag_changed_in_part_says_the_frames_left_and_why():
                            "than the take; a half turn in one frame and back, not turned back)")
     left = [f["left_frames"] for f in flag_outcomes(res) if f["left"]]
     assert int(res.flags.sum()) - int((res.flags & res.changed).sum()) == sum(b - a + 1 for a, b in left)
+
+
+def test_the_record_counts_the_flags_the_report_lists_turn_overs_included():
+    """User trial B (40 Bandai Namco takes through clean-batch): on raise-up-right-hand_active_060 with a flip
+    (`mocapkit corrupt --kind flip --seed 2`) the record said "detect: 4 flagged segments" and the report
+    "Flags (5)": the repair step flags the turn-overs' cells too (Neck 25-30 a flag of its own), and no step's
+    note counted them. Detect's note still counts what detection flagged; the step that flags more says the
+    flags in all, as the report lists them (:func:`flag_segments`), in review mode (detect alone) too."""
+    import re
+
+    take = mocapkit.load(Path(__file__).parents[1] / "data" / "dataset-2_raise-up-right-hand_active_060_flip.bvh")
+    for steps, last in ((("detect", "repair"), "repair"), (("detect",), "detect")):
+        res = clean(take, steps=steps)
+        notes = {s.name: s.note for s in res.steps}
+        assert notes["detect"].startswith(f"{len(res.detection.segments())} flagged segments"), notes
+        listed = len(flag_segments(res))
+        assert listed > len(res.detection.segments()), (steps, listed)  # the turn-overs' flags: what the trial saw
+        said = re.search(r"(\d+) flagged segments in all with the turn-overs' cells \((\d+) before\)", notes[last])
+        assert said and int(said[1]) == listed and int(said[2]) == len(res.detection.segments()), notes[last]

@@ -149,9 +149,9 @@ from .measured import keep_measured_in_denoise, kept_note
 from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import find_stutters, stutter_frames
-from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, motion_span,
-                         repair_whole, review_whole, take_params, teleports_note, turn_overs_note, with_flips,
-                         with_teleports)
+from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, flagged_in_all_note,
+                         motion_span, repair_whole, review_whole, take_params, teleports_note, turn_overs_note,
+                         with_flips, with_teleports)
 from .zeros import find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
@@ -628,11 +628,14 @@ def clean(
             if "repair" not in steps:  # review: the teleports and turn-overs the repair step would name, flagged, left
                 seen = (review_whole(cur, det, poses=poses) if redo is None else
                         review_whole(undenoised, det, context, poses=poses))
+                detected = flags
                 flags, causes = with_teleports(flags, causes, seen.teleported)
                 flags, causes = with_flips(flags, causes, seen.turn_overs.flagged)
                 notes.extend(seen.lines)
-                note = "; ".join(x for x in (note, teleports_note(seen.teleports), turn_overs_note(seen.turn_overs.lines))
-                                 if x)
+                # the flags in all, as the report lists them: a turn-over's cells are flagged here, not by detection
+                note = "; ".join(x for x in (note, teleports_note(seen.teleports), turn_overs_note(seen.turn_overs.lines),
+                                             flagged_in_all_note(detected, flags, seen.teleported,
+                                                                 seen.turn_overs.flagged)) if x)
             records.append(StepRecord("detect", time.perf_counter() - t, 0, f"self-similarity against {what}", note))
 
     if "repair" in steps and det is not None:
@@ -651,11 +654,15 @@ def clean(
         elif redo is not None:
             cur = dataclasses.replace(cur, rotations=np.where(denoised[..., None], den_rot, cur.rotations))
         # the root cells put back: flagged in the record, so a person can undo them
+        detected = flags
         flags, causes = with_teleports(flags, causes, done.teleported)
         flags, causes = with_flips(flags, causes, done.turn_flags)  # turn-overs turned back or named: named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
         notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
-        note = "; ".join(x for x in (note, turn_overs_note(done.flips), done.measured) if x)  # kept or changed whole
+        # the flags in all, as the report lists them: detect's note counts only what detection flagged
+        note = "; ".join(x for x in (note, turn_overs_note(done.flips),
+                                     flagged_in_all_note(detected, flags, done.teleported, done.turn_flags),
+                                     done.measured) if x)  # kept or changed whole
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))
             note = "; ".join(x for x in (note, f"{plural(len(done.left), 'run')} left: repair not better than the take") if x)

@@ -53,6 +53,7 @@ import numpy as np
 
 from ..errors import MocapError, SkeletonError
 from ..motion import Motion
+from ..words import plural
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import guarded
 from .measured import keep_measured, keep_measured_in_denoise, keep_measured_in_repair, kept_note, measured_axes
@@ -62,7 +63,7 @@ __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "
            "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "check_no_zeros", "detect_take", "across_breaks",
            "repair_take", "repair_whole", "TurnOvers", "body_joints", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
            "TakeReview", "review_whole", "teleports_note",
-           "with_teleports", "changed_cells", "differing", "REVIEW_WHY"]
+           "with_teleports", "flagged_in_all_note", "changed_cells", "differing", "REVIEW_WHY"]
 
 MAX_WORD_ANGLE_DEG = 8.0  # words with no neighbour this close (RMS joint angle) are not judged
 #: above this share of missing joint samples, a fill is said to have made up most of the take
@@ -614,6 +615,31 @@ def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.
     causes = np.zeros(flags.shape, dtype=CAUSE_DTYPE) if causes is None else np.array(causes, dtype=CAUSE_DTYPE)
     causes[teleported] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("teleport"))
     return flags | teleported, causes
+
+
+def flagged_in_all_note(before: np.ndarray, after: np.ndarray, teleported=None, turned=None) -> str:
+    """``"5 flagged segments in all with the turn-overs' cells (4 before)"``: what a step's record says when it
+    flags cells (:func:`with_teleports`, :func:`with_flips`) beyond those detection flagged, so that the counts
+    of the record agree with the flags the report lists (:func:`mocapkit.cleaning.decisions.flag_segments`, one
+    run of frames of one joint each); "" when the step flagged nothing more.
+
+    ``before``, ``after``: (F, J) bool flags before and after the step; ``teleported``, ``turned``: (F, J) bool
+    cells of its teleports and turn-overs (None: none), which name what it flagged. A turn-over touching a flag of
+    detection lengthens that flag instead of adding one, so the count in all is said, not the difference.
+    """
+    from .ik import contact_segments
+
+    before, after = np.asarray(before, dtype=bool), np.asarray(after, dtype=bool)
+    if not (after & ~before).any():
+        return ""
+
+    def runs(flags: np.ndarray) -> int:
+        return sum(len(contact_segments(flags[:, j])) for j in np.flatnonzero(flags.any(axis=0)))
+
+    kinds = [what for what, cells in (("teleports", teleported), ("turn-overs", turned))
+             if cells is not None and (np.asarray(cells, dtype=bool) & ~before).any()]
+    whose = f" with the {' and '.join(kinds)}' cells" if kinds else ""
+    return f"{plural(runs(after), 'flagged segment')} in all{whose} ({runs(before)} before)"
 
 
 def differing(a, b) -> np.ndarray:
