@@ -448,7 +448,9 @@ class BatchSummary:
 
     ``rows``: one dict per take, sorted by input: ``input``, ``output``,
     ``status`` (``done``/``skipped``/``failed``), ``reason`` (one line),
-    ``seconds`` and, for cleaned takes, the counts of cells changed.
+    ``seconds`` and, for cleaned takes, the counts of cells changed, ``warnings`` (a step's fallback, a model's
+    licence: lines that name no file) and ``file_notes`` (what the reader did, what the output's format leaves out:
+    each line names the file it is about, as ``clean`` prints them; paths as the caller gave them).
     ``renamed``: the inputs whose output is named after the input's format because
     another take would have written the same file (module docstring).
     ``earlier``: folders below IN_DIR left out as an earlier batch's outputs.
@@ -512,7 +514,7 @@ def _undo_take(finals: list[Path], kept: dict[Path, Path], moved: list[Path]) ->
 
 def _clean_job(job: dict) -> dict:
     from .cleaning.pipeline import clean_path
-    from .io import marker_notes, motion_notes, unread_note
+    from .io import marker_notes, motion_notes
     from .io.outputs import drop_kept, keep_aside, temp_prefix
     from .parallel import owner_alive
 
@@ -552,9 +554,9 @@ def _clean_job(job: dict) -> dict:
         if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
             row.update(frames=res.markers.num_frames, filled=int(res.filled.sum()),
                        spikes=int(res.spikes.sum()), swapped=int(res.swapped.sum()), notes=res.summary()[1:],
-                       warnings=marker_notes(res.original, out, filled=res.fill_mask,  # what the reader did,
-                                             record=clean_path(out))  # what OUT cannot hold
-                       + [n for n in [unread_note(out, job["input"])] if n])  # an npz's arrays no reader reads
+                       warnings=[],  # what the reader did, what OUT cannot hold, an npz's arrays no reader reads:
+                       file_notes=marker_notes(res.original, out, job["input"], filled=res.fill_mask,
+                                               record=clean_path(out)))  # each line names its file
         else:
             from .cleaning.flags_left import left_line
             from .cleaning.judged import not_judged_note
@@ -563,7 +565,8 @@ def _clean_job(job: dict) -> dict:
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
                        left=left_line(res), judged=not_judged_note(res.detection, res.num_frames),
-                       warnings=[n for n in res.notes if n in said] + motion_notes(taken, out, job["input"]))
+                       warnings=[n for n in res.notes if n in said],
+                       file_notes=motion_notes(taken, out, job["input"]))  # each line names its file (OUT)
     except _Orphaned:
         _undo_take(finals, kept, moved)
         row.update(status="failed", reason=_GONE)
@@ -886,9 +889,17 @@ def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
     row.update(input=str(inp), output=str(files["output"]))
     if row["status"] == "done" and again:
         row["reason"] = again
+    if row.get("file_notes"):  # each names its file already: as given, so the line names it once, as the take line
+        row["file_notes"] = [_given(note, inp, files) for note in row["file_notes"]]
     elif row["status"] == "failed":  # a reader's "PATH:LINE: ..." names the input as given, so its line says it once
-        for path in (files["output"], inp):
-            row["reason"] = row["reason"].replace(_abs(path), str(path))
+        row["reason"] = _given(row["reason"], inp, files)
+
+
+def _given(line: str, inp: Path, files: dict) -> str:
+    """``line`` with the absolute paths a worker saw of the take's output and input as the caller gave them."""
+    for path in (files["output"], inp):
+        line = line.replace(_abs(path), str(path))
+    return line
 
 
 def _asf_copies(inputs: list[Path], plans: list[dict], asf, overwrite: bool,

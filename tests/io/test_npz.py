@@ -353,4 +353,21 @@ def test_clean_batch_names_a_marker_npz_s_unread_arrays(tmp_path):
     row, = clean_batch(src, tmp_path / "out", executor="serial", progress=False).rows
     assert row["status"] == "done", row
     assert any("not written: 1 array of" in w and w.endswith("that mocapkit does not read (force)")
-               for w in row["warnings"]), row["warnings"]
+               for w in row["file_notes"]), row["file_notes"]
+
+
+def test_clean_batch_names_the_file_of_each_note_once(tmp_path):
+    """User trial B (clean-batch on a folder of takes): a note naming the file it is about (what the output's
+    format leaves out) was printed as a warning prefixed with the take's input, its output named after it as the
+    worker saw it (``warning: in/e.npz: /abs/out/e.npz: not written: 1 array of /abs/in/e.npz ...``). It is
+    printed as ``clean`` prints it, ``note: LINE``, each file named once, as the caller gave it."""
+    from mocapkit.io.npz import write_npz
+    from tests.cli import helpers
+
+    (tmp_path / "in").mkdir()
+    write_npz(read_c3d(Path(mocapkit.__file__).parent / "data" / "Eb015pr.c3d")[:100], tmp_path / "e.npz")
+    np.savez(tmp_path / "in" / "e.npz", **dict(np.load(tmp_path / "e.npz")), force=np.zeros(3))
+    code, out, err = helpers.run("clean-batch", "in", "out", "--executor", "serial", cwd=tmp_path)
+    assert code == 0, (out, err)
+    said = [line for line in out.splitlines() if "does not read" in line]
+    assert said == ["note: out/e.npz: not written: 1 array of in/e.npz that mocapkit does not read (force)"], out

@@ -411,6 +411,8 @@ def clean_batch(
         console.print(_take_line(row, done) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
             console.print(f"warning: {row['input']}: {note}")
+        for note in row.get("file_notes", ()):  # as clean says them: each names its file (OUT) already
+            console.print(f"note: {note}")
 
     try:
         summary = run_batch(in_dir, out_dir, context=context, steps=step_list, threshold=threshold, patterns=patterns,
