@@ -21,6 +21,7 @@ from functools import partial
 import numpy as np
 import pytest
 
+from mocapkit.cli.clean import start_line
 from tests.conftest import SHARED_DATA
 from tests.fuzzing import commands, issue20
 
@@ -141,6 +142,7 @@ def _result(returncode=0, stderr="", stdout="wrote x", signal=None, cpu=1.0, rss
     return commands.StepResult(tuple(argv), returncode, signal, 1.0, cpu, rss, stdout, stderr)
 
 
+START = start_line("in", 2, 3, "this process") + "\n"  # clean-batch's first line on stderr
 LIM = commands.Limits(mem_bytes=2 << 30, cpu_s={"default": 20.0})
 
 
@@ -164,6 +166,12 @@ LIM = commands.Limits(mem_bytes=2 << 30, cpu_s={"default": 20.0})
         (_result(0), "refuse", {"accepted"}),
         (_result(2, "mocapkit: error: arm.bvh: no left foot\n"), "ok", {"refused"}),
         (_result(1, "", argv=("clean-batch", "in", "out")), "any", set()),
+        # clean-batch's start line is no message: exit 0, a failed take (1), one error line after it (2)
+        (_result(0, START, argv=("clean-batch", "in", "out")), "any", set()),
+        (_result(1, START, argv=("clean-batch", "in", "out")), "any", set()),
+        (_result(2, START + "mocapkit: error: out/a.bvh: no space left on the device\n", argv=("clean-batch", "in", "out")),
+         "any", set()),
+        (_result(0, START), "any", {"message"}),  # from another command it is one
     ],
 )
 def test_oracle_judges_exit_and_standard_error(res, expect, kinds):

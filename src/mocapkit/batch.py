@@ -693,6 +693,7 @@ def clean_batch(
     zeros_as_gaps: bool | None = None,
     on_row: Callable[[dict, int, int], None] | None = None,
     on_context: Callable[[str], None] | None = None,
+    on_start: Callable[[int, int, str], None] | None = None,
     joint_map: dict | None = None,
     flags: bool = False,
     jobs: int | None = None,
@@ -722,6 +723,9 @@ def clean_batch(
     cleaned or failed as it finishes (completion order); ``n`` counts the rows so far, ``total`` the takes.
     ``on_context(line)``: called with a line as the ``context`` files start to be built into a database, before
     the first take, and one as the build ends (its clips and seconds; nothing when the cache holds it).
+    ``on_start(todo, total, where)``: called in this process as the first take is handed out, with the takes to clean,
+    the takes found and where they run (``BatchSummary.executor``); not called when every take is complete. The first
+    row may come minutes later (numba compiles the kernels on a cold cache): a log says the batch started.
     ``joint_map``: the names the ``context`` build gives a rig's joints (:func:`load_context`).
     ``jobs``: how many takes local processes clean at once (default: one per core); a machine shared overnight
     keeps the rest of its cores. Only for local processes (``executor`` None or ``"processes"``).
@@ -845,6 +849,8 @@ def clean_batch(
         try:
             if work:
                 mark(out_dir, in_dir)
+                if on_start is not None:
+                    on_start(len(work), total, summary.executor)
             rows = map_ordered(_batch_job, work, executor=executor, progress=progress, desc="clean", max_workers=jobs,
                                on_result=finished_take, option=executor_option) if work else []
             finished = True

@@ -706,6 +706,10 @@ _PROGRESS = re.compile(r"[^\r\n]*?\d+%\|[^|\r\n]*\|[^\[\r\n]*\[[^\]\r\n]*\]|[^\r
 _EXCEPTION_LINE = re.compile(r"^[A-Za-z_][\w.]*(?:Error|Exception|Interrupt|Exit|Warning|error)\b")
 
 
+#: clean-batch's first line on stderr as its first take is handed out (mocapkit.cli.clean.start_line): no message
+_BATCH_START = re.compile(r"cleaning \d+ (?:of \d+ )?takes? in .+ on .+; on a cold numba cache ")
+
+
 def strip_progress(stderr: str) -> str:
     """Standard error without tqdm's progress bars (and the carriage returns between their updates)."""
     return "\n".join(ln for ln in _PROGRESS.sub("", stderr).replace("\r", "\n").splitlines() if ln.strip())
@@ -741,7 +745,7 @@ def judge(res: StepResult, step: Step, limits: Limits) -> list[Finding]:
     """The oracle for one command's exit, standard error and resources (files are judged in :func:`run_case`)."""
     found: list[Finding] = []
     err = strip_progress(res.stderr)
-    lines = err.splitlines()
+    lines = [ln for ln in err.splitlines() if not (step.argv[:1] == ("clean-batch",) and _BATCH_START.match(ln))]
     cpu_limit = limits.cpu_for(step.argv)
     hung = any(f.kind == "hang" for f in res.findings)
     if any(s in err for s in _MEMORY_SIGNS) or res.peak_rss_mb * (1 << 20) > limits.mem_bytes:

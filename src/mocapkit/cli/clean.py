@@ -342,6 +342,21 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     return f"{done} {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
 
 
+def start_line(in_dir, todo: int, total: int, where: str) -> str:
+    """The line ``clean-batch`` prints on standard error as its first take is handed out (``todo`` of ``total``
+    takes under ``in_dir``, cleaned on ``where``: ``BatchSummary.executor``): a log said nothing until the first
+    take was done. On a cold cache numba compiles the kernels the first takes call, once (90 s before the first
+    take of two Bandai Namco takes in one process here; a user's trial of 40 on 2 cores: 112 s);
+    ``python -m mocapkit.warmup`` (:mod:`mocapkit.warmup`, which ``make install`` runs) compiles them ahead:
+    ``cleaning 3 of 40 takes in takes (37 already complete) on this process; on a cold numba cache the first
+    takes wait for numerical kernels to compile (1-2 min, once; python -m mocapkit.warmup compiles them ahead)``.
+    """
+    which = plural(total, "take") if todo == total else f"{todo} of {plural(total, 'take')}"
+    done = f" ({total - todo} already complete)" if todo < total else ""
+    return (f"cleaning {which} in {in_dir}{done} on {where}; on a cold numba cache the first takes wait for "
+            "numerical kernels to compile (1-2 min, once; python -m mocapkit.warmup compiles them ahead)")
+
+
 def clean_batch(
     in_dir: Path = typer.Argument(..., metavar="IN_DIR", help="Folder of takes (searched recursively)."),
     out_dir: Path = typer.Argument(..., metavar="OUT_DIR", help="Folder for the cleaned takes (same layout)."),
@@ -407,6 +422,9 @@ def clean_batch(
     def print_context(line: str) -> None:  # a build of --context before the first take: a minute a log said nothing
         print(line, file=sys.stderr, flush=True)
 
+    def print_start(todo: int, total: int, where: str) -> None:  # the first take's line may come minutes later
+        print(start_line(in_dir, todo, total, where), file=sys.stderr, flush=True)
+
     def print_row(row: dict, n: int, total: int) -> None:
         console.print(_take_line(row, done) + (f" [{n}/{total}]" if counted else ""))
         for note in row.get("warnings", ()):  # as clean says them: a fallback, a model's licence
@@ -420,7 +438,8 @@ def clean_batch(
                             overwrite=overwrite, asf=asf, drifts=drifts, models=models, amc_fps=amc_fps, unit=unit,
                             max_gap_s=max_gap, max_error_mm=max_fill_error, zeros_as_gaps=zeros_as_gaps,
                             noise_deg=noise_deg, on_row=None if as_json else print_row,
-                            on_context=print_context if counted else None, joint_map=jm, flags=True, jobs=jobs)
+                            on_context=print_context if counted else None, on_start=print_start, joint_map=jm,
+                            flags=True, jobs=jobs)
     except KeyboardInterrupt:  # "no partial output" alone reads as if nothing was kept
         if out_dir.is_dir() and any(out_dir.rglob("*.clean.npz")):
             console.print(f"note: the takes finished in {out_dir} are kept; the same command resumes the others")
