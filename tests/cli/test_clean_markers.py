@@ -229,7 +229,7 @@ def test_a_reader_note_is_shown_by_clean_convert_and_clean_batch(tmp_path):
     code, stdout, _ = run("clean", folder / "dup.c3d", "-o", tmp_path / "d.c3d")
     assert code == 0 and f"note: {folder / 'dup.c3d'}: {note}" in stdout
     code, stdout, _ = run("clean-batch", folder, tmp_path / "out", "--executor", "serial")
-    assert code == 0 and f"warning: {folder / 'dup.c3d'}: {note}" in stdout
+    assert code == 0 and f"note: {folder / 'dup.c3d'}: {note}" in stdout  # as clean and convert say it
     import ezc3d
 
     for out in (tmp_path / "d.c3d", tmp_path / "out" / "dup.c3d"):
@@ -308,7 +308,7 @@ def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_
     save_markers(cut.with_positions(cut_positions), folder / "cut.trc", overwrite=True)
     code, stdout, stderr = run("clean-batch", folder, tmp_path / "out", "--executor", "serial")
     assert code == 0, stderr + stdout
-    assert (f"warning: {folder / 'cut.trc'}: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are "
+    assert (f"note: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are "
             "written like recorded ones") in stdout
     eb = load_markers(mocapkit_sample("Eb015pr.c3d"))  # residuals over 0: its fills are marked with residual 0 ...
     code, stdout, stderr = run("clean", mocapkit_sample("Eb015pr.c3d"), "-o", tmp_path / "e.c3d")
