@@ -897,7 +897,7 @@ def _as_given(row: dict, inp: Path, files: dict, again: str | None) -> None:
         row["reason"] = again
     if row.get("file_notes"):  # each names its file already: as given, so the line names it once, as the take line
         row["file_notes"] = [_given(note, inp, files) for note in row["file_notes"]]
-    elif row["status"] == "failed":  # a reader's "PATH:LINE: ..." names the input as given, so its line says it once
+    if row["status"] == "failed":  # a reader's "PATH:LINE: ..." names the input as given, so its line says it once
         row["reason"] = _given(row["reason"], inp, files)
 
 
