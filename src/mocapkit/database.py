@@ -940,11 +940,11 @@ class MotionDatabase:
 
     def missing_note(self) -> str:
         """One line for a ``note:``, naming the database and how many frames have missing joints (NaN poses an
-        earlier mocapkit kept: :meth:`missing_frames`) and that a rebuild drops them; "" when none has."""
+        earlier mocapkit kept: :meth:`missing_frames`) and how to rebuild it without them; "" when none has."""
         n = self.missing_frames()
         if not n:
             return ""
         name = self.path if self.path is not None else "the database"
         return (f"{name}: {plural(n, 'frame')} of {self.num_frames} {'has' if n == 1 else 'have'} missing joints "
-                "(NaN), kept by mocapkit 0.14.0 or earlier; a search leaves their clips out and a reconstruction may fail: rebuilding it drops them "
-                "(`db build` now refuses a take with gaps: `mocapkit fill` it first)")
+                "(NaN), kept by mocapkit 0.14.0 or earlier; a search leaves their clips out and a reconstruction may fail: "
+                "rebuild it from the takes filled (`mocapkit fill`; `db build` refuses a take with gaps)")

@@ -218,7 +218,7 @@ def test_search_says_when_fewer_segments_than_k_remain_with_and_without_json(tmp
 def test_a_database_of_an_earlier_mocapkit_with_nan_poses_is_opened_with_a_note(tmp_path):
     """mocapkit 0.14.0 put a take with gaps in a database as NaN poses (`db build` refuses such a take now): search,
     clean --context and reconstruct opened it without a word. They open it still, and say in one `note:` line
-    naming the database how many frames have missing joints and that rebuilding drops them."""
+    naming the database how many frames have missing joints and how to rebuild it."""
     import json
 
     import numpy as np
@@ -235,7 +235,7 @@ def test_a_database_of_an_earlier_mocapkit_with_nan_poses_is_opened_with_a_note(
     del rot
     db = MotionDatabase.open(db_dir)
     said = (f"{db_dir}: 3 frames of {db.num_frames} have missing joints (NaN), kept by mocapkit 0.14.0 or earlier; "
-            "a search leaves their clips out and a reconstruction may fail: rebuilding it drops them")
+            "a search leaves their clips out and a reconstruction may fail: rebuild it from the takes filled")
     assert db.missing_frames() == 3 and db.missing_note().startswith(said)
     code, out, err = run("search", str(db_dir), _db_sources()[1], "--k", "1", "--start", "1.5", "--end", "2.5")
     assert code == 0 and f"note: {said}" in " ".join(out.split()) and "cost/frame" in out

@@ -129,7 +129,7 @@ def search(
         raise MocapError(f"--method must be lng or dtw, got {method!r}")
     check_asf(asf, [query], amc_fps, names=CLI_AMC_NAMES)
     db = MotionDatabase.open(db_dir)
-    gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: said, not refused (a rebuild drops them)
+    gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: said, not refused (a rebuild from filled takes has none)
     m = load_motion(query, asf, purpose="a query", fps=amc_fps, unit=unit, unit_option="--unit")
     a = 0 if start is None else int(round(start * m.fps))
     b = m.num_frames if end is None else min(int(round(end * m.fps)), m.num_frames)  # --end past the clip: its end
