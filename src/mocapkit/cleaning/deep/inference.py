@@ -30,7 +30,7 @@ from .prior import GapPrior, conditional_fill
 from .provenance import card_as_read, model_licence, model_rig, restricts_use, unfinished_note
 from .retarget import Serving, served_by
 from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
-from .threads import INFERENCE_PARTS, release_freed_memory, torch_threads
+from .threads import INFERENCE_PARTS, RELEASE_FRAMES, release_freed_memory, torch_threads
 from .retarget import decode as decode_served
 from .retarget import encode as encode_served
 from .networks import (
@@ -487,7 +487,8 @@ def denoise_channels(
     out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0],
                    observed=observed, edges=run_edges, stride=scoring_stride(m.fps), fps=m.fps)
     del xp, cp
-    release_freed_memory()  # the network's temporaries, freed into heaps that keep them (threads module)
+    if end >= RELEASE_FRAMES:  # a long take's temporaries, freed into heaps that keep them (threads module)
+        release_freed_memory()
     if resample:
         out = _to_rate(out, m.fps, fps, n_to=len(x))
     elif end < len(x):
