@@ -243,6 +243,10 @@ def test_a_database_of_an_earlier_mocapkit_with_nan_poses_is_opened_with_a_note(
                          "--json")
     assert code == 0 and len(json.loads(out.strip().splitlines()[-1])) == 1 and f"note: {said}" in err
     assert sum(line.startswith("note: ") and "missing joints" in line for line in err.splitlines()) == 1
+    code, out, err = run("db", "info", str(db_dir))  # db info said nothing of them
+    assert code == 0 and f"note: {said}" in " ".join(out.split())
+    code, out, err = run("db", "info", str(db_dir), "--json")
+    assert code == 0 and json.loads(out)["missing_frames"] == 3
     ctx, note = fit_context(take, resolve_context([db_dir]))  # clean --context DB: among the context's notes
     assert ctx is not None and said in note
     # reconstruct failed on them with numpy's words after the note ("...005_120.amc: Eigenvalues did not converge"):

@@ -93,15 +93,20 @@ def db_info(
 
     db = MotionDatabase.open(directory)
     summary = db.summary()
+    gaps = db.missing_note()  # NaN poses an earlier mocapkit kept (search and reconstruct say it too)
     if as_json:
         if clips:
             summary["clip_list"] = [{"name": c.name, "start": c.start, "frames": c.frames, "source": c.source} for c in db.clips]
+        if gaps:
+            summary["missing_frames"] = db.missing_frames()
         print(json.dumps(summary))
         return
     print_fields(database_rows(summary))
     if clips:
         print_table(("#", "clip", "first frame", "frames", "source"),
                     ((k, c.name, c.start, c.frames, c.source) for k, c in enumerate(db.clips)))
+    if gaps:
+        console.print(f"note: {gaps}", soft_wrap=True)
 
 
 def search(
