@@ -20,6 +20,7 @@ from pathlib import Path
 from ..errors import MissingFileError, MocapError, MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over
 from ..markerset import MarkerSet
+from ..words import plural
 from .outputs import check_file_path, missing_folders, named_as_given, publish, temp_prefix
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
@@ -322,7 +323,7 @@ def motion_notes(motion, path, like=None) -> list[str]:
                 n -= _npz_kept_comments(motion, like)
                 why = "an .npz keeps them only at the take's frames, rate and skeleton"
         if n:
-            notes.append(f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} ({why})")
+            notes.append(f"{path}: not written: {plural(n, 'comment line')} of {like} ({why})")
     amc = _amc_dropped_comments(motion, path, kind, like)
     unread = unread_note(path, like if like not in (None, False) else motion.source_file)
     return notes + ([amc] if amc else []) + ([unread] if unread else [])
@@ -340,7 +341,7 @@ def unread_note(path, inp) -> str | None:
     if not names:
         return None
     shown = ", ".join(names[:8]) + (f" and {len(names) - 8} more" if len(names) > 8 else "")
-    return (f"{path}: not written: {len(names)} array{'s' if len(names) > 1 else ''} of {inp} that mocapkit "
+    return (f"{path}: not written: {plural(len(names), 'array')} of {inp} that mocapkit "
             f"does not read ({shown})")
 
 
@@ -365,7 +366,7 @@ def _amc_dropped_comments(motion, path: Path, kind: str, like) -> str | None:
         return None
     if not n:
         return None
-    return (f"{path}: not written: {n} comment line{'s' if n > 1 else ''} of {like} (an AMC's are kept only in an "
+    return (f"{path}: not written: {plural(n, 'comment line')} of {like} (an AMC's are kept only in an "
             ".amc or .npz written like it, at its frames and skeleton)")
 
 

@@ -19,6 +19,7 @@ import numpy as np
 
 
 from ..markerset import MarkerSet
+from ..words import plural
 from .c3d_layout import parameter_values
 
 __all__ = ["marker_file_contents", "marker_counts", "zero_gaps_line"]
@@ -70,7 +71,7 @@ def never_seen_line(markers: MarkerSet) -> str:
         return ""
     names = [markers.labels[i] for i in np.flatnonzero(never)]
     shown = ", ".join(names[:5]) + (", ..." if n > 5 else "")
-    return f"{n} of {int(kept.sum())} marker{'s' if kept.sum() != 1 else ''} never seen: {shown}"
+    return f"{n} of {plural(int(kept.sum()), 'marker')} never seen: {shown}"
 
 
 def marker_file_contents(markers: MarkerSet) -> list[tuple[str, str]]:

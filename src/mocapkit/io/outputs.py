@@ -47,7 +47,7 @@ from typing import Iterable, Iterator
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
-__all__ = ["check_file_path", "check_outputs", "database_around", "replaced_whole_around", "same_file", "inside",
+__all__ = ["check_file_path", "check_outputs", "replaced_whole_around", "same_file", "inside",
            "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders",
            "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX"]
 
@@ -102,13 +102,6 @@ def replaced_whole_around(path: os.PathLike | str) -> tuple[Path, str, str] | No
             if isinstance(meta, dict) and says(meta):
                 return folder, what, how
     return None
-
-
-def database_around(path: os.PathLike | str) -> Path | None:
-    """The motion database folder that ``path`` would be written inside (its folder or any folder above it), or None
-    (:func:`replaced_whole_around`, databases only)."""
-    found = replaced_whole_around(path)
-    return found[0] if found is not None and found[1] == _WHOLE_FOLDERS[0][2] else None
 
 
 def same_file(a: os.PathLike | str, b: os.PathLike | str) -> bool:
