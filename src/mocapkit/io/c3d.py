@@ -16,7 +16,7 @@ Samples stored as exact (0, 0, 0) gaps are read as missing
 (:func:`~mocapkit.markerset.zero_gap_mask`).
 Residuals and camera masks are read from each point's fourth word as
 the C3D guide defines it (:func:`point_words`: ezc3d 1.7 swaps its two
-bytes), and the header's events (:func:`_header_events`) are kept.
+bytes), and the header's events (:func:`~mocapkit.io.c3d_layout.header_events`) are kept.
 
 :func:`write_c3d` writes with ezc3d and keeps every other parameter group and
 the analog channels of the file read, and an integer file's 16-bit storage
@@ -46,9 +46,10 @@ from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, trial_first,
                          zero_gap_words)
-from .c3d_layout import (PARAMETER_ENTRIES, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
-                         oversized_parameter, parameter_values, put_analogs, put_header_gap, put_parameter,
-                         put_spare_events, put_texts, spare_events, stored_analogs, text_chunks, with_offsets)
+from .c3d_layout import (header_events, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
+                         oversized_parameter, parameter_values, put_analogs, put_header_events, put_header_gap,
+                         put_parameter, put_spare_events, put_texts, spare_events, stored_analogs, text_chunks,
+                         with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -479,7 +480,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     file_labels = tuple(str(s).strip() for s in list(raw_labels)[:n]) + labels[len(raw_labels):]
     layout = dict(header_layout(raw), trial_first=source.first_frame, trial_frames=xyz.shape[0],  # the whole file
                   trial_rate=fps, **spare_events(raw))
-    source = dataclasses.replace(source, labels=file_labels, events=_header_events(raw), layout=layout,
+    source = dataclasses.replace(source, labels=file_labels, events=header_events(raw), layout=layout,
                                  modelled=stated_positions(source.parameters, labels))
     modelled = set(modelled) | set(source.modelled)
     stated = str(units).replace("\x00", " ").strip()  # NUL-padded in some files (and cut ones)
@@ -494,31 +495,6 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
                         residuals=resid, source=source, zero_gaps=zeros, cameras=cameras,
                         notes=repeated_labels_note(file_labels, labels), units_from=units_from)
     return _check_result(path, markers)
-
-
-# C3D header event section (16-bit words from 1): word 150 the key 12345, 151 the event count (at
-# most 18), 153-188 the times (floats, seconds), 189-197 a display flag byte per event, 199-234
-# the labels (4 characters each). Byte offsets of each:
-_EVENT_KEY, _EVENT_COUNT, _EVENT_TIMES, _EVENT_FLAGS, _EVENT_LABELS = 298, 300, 304, 376, 396
-
-
-def _header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
-    """The events the C3D header lists: (time s, 4-character label, display flag) each; () for none.
-
-    Files older than the EVENT parameter group (c3d.org's Eb015pi.c3d: RIC,
-    RHS, RTO) hold their gait events only here.
-    """
-    proc = raw[(raw[0] - 1) * 512 + 3]
-    e = ">" if proc == 86 else "<"
-    count, = struct.unpack_from(e + "h", raw, _EVENT_COUNT)
-    if not 0 < count <= 18:
-        return ()
-    out = []
-    for i in range(count):
-        t = read_float(raw, proc, _EVENT_TIMES + 4 * i)
-        label = raw[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4].decode("latin-1")
-        out.append((float(t) if np.isfinite(t) else 0.0, label, raw[_EVENT_FLAGS + i]))
-    return tuple(out)
 
 
 def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
@@ -541,6 +517,17 @@ def _c3d_like(markers: MarkerSet, like) -> tuple[MarkerSource | None, bool]:
     else:
         source = markers.source
     return (source, own) if source is not None and source.format == "c3d" else (None, own)
+
+
+def _parts(params: dict, key: str, pop: bool = False) -> list:
+    """The values of the parameter ``key`` of a group ``params`` (ezc3d's layout) and of its continuations
+    KEY2, KEY3 ... past 255 entries (:func:`~mocapkit.io.c3d_layout.text_chunks`) in one list; ``pop``: each
+    taken out of ``params`` as it is read."""
+    out = []
+    for k in [key] + [f"{key}{i}" for i in range(2, 100)]:
+        if k in params:
+            out += list(np.ravel((params.pop(k) if pop else params[k])["value"]))
+    return out
 
 
 def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, first: int, rate: float):
@@ -575,17 +562,11 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
         if group not in c["parameters"]:
             c["parameters"][group] = copy.deepcopy(dict(ezc3d.c3d()["parameters"][group]))
     point = c["parameters"]["POINT"]
-    old_labels = []
-    for k in ["LABELS"] + [f"LABELS{i}" for i in range(2, 100)]:
-        if k in point:
-            old_labels += [str(v).strip() for v in np.ravel(point[k]["value"])]
+    old_labels = [str(v).strip() for v in _parts(point, "LABELS")]
     # the file's own labels while the markers are the file's (a label it repeats written as it had it)
     labels = [label.strip() for label in markers.file_labels()]
     same_markers = old_labels[:M] == labels
-    texts = []  # the file's per-marker descriptions, DESCRIPTIONS2... (past 255 markers) folded in
-    for k in ["DESCRIPTIONS"] + [f"DESCRIPTIONS{i}" for i in range(2, 100)]:
-        if k in point:
-            texts += [str(v) for v in np.ravel(point[k]["value"])]
+    texts = [str(v) for v in _parts(point, "DESCRIPTIONS")]  # the file's per-marker descriptions
     described = dict(point["DESCRIPTIONS"]) if "DESCRIPTIONS" in point and same_markers else None
     for k in list(point):
         # POINT:DATA_START stays: ezc3d writes its own value there, keeping the file's description and lock
@@ -606,10 +587,8 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     analog = c["parameters"]["ANALOG"]
     A = 0 if analogs is None else analogs.shape[0]
     for key in ("LABELS", "DESCRIPTIONS", "UNITS"):  # one text per channel written, LABELS2... folded in
-        values, old = [], dict(analog.get(key, {}))  # its description and lock kept, as the file had them
-        for k in [key] + [f"{key}{i}" for i in range(2, 100)]:
-            if k in analog:
-                values += [str(v) for v in np.ravel(analog.pop(k)["value"])]
+        old = dict(analog.get(key, {}))  # its description and lock kept, as the file had them
+        values = [str(v) for v in _parts(analog, key, pop=True)]
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
             analog.update(text_chunks(key, {"type": -1, "description": old.get("description", ""),
@@ -680,18 +659,6 @@ def _put_point_words(data: bytearray, markers: MarkerSet, scale: float) -> None:
     byte = np.clip(np.rint(np.where(res < 0, 0.0, res) / step), 0, 255).astype(np.int64)
     cams = np.zeros_like(byte) if markers.cameras is None else markers.cameras & 0x7F
     block[:, 3::4][:, : markers.num_markers] = np.where(res < 0, -1, (cams << 8) | byte).astype(np.float32)
-
-
-def _put_header_events(data: bytearray, events) -> None:
-    """Write the C3D header's event section (see :func:`_header_events`) for up to 18 events."""
-    events = list(events)[:18]
-    if not events:
-        return
-    struct.pack_into("<hh", data, _EVENT_KEY, 12345, len(events))
-    for i, (t, label, flag) in enumerate(events):
-        struct.pack_into("<f", data, _EVENT_TIMES + 4 * i, float(t))
-        data[_EVENT_FLAGS + i] = int(flag) & 0xFF
-        data[_EVENT_LABELS + 4 * i:_EVENT_LABELS + 4 * i + 4] = label.encode("latin-1", "replace")[:4].ljust(4)
 
 
 def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
@@ -821,12 +788,11 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
         put_stored_zeros(_data_block(data, markers.num_frames, markers.num_markers), markers, scale)
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
-        for i in range(0, max(len(offsets), 1), PARAMETER_ENTRIES):  # OFFSET, OFFSET2 ... past 255 channels
-            put_parameter(data, "ANALOG", f"OFFSET{i // PARAMETER_ENTRIES + 1 if i else ''}",
-                          offsets[i:i + PARAMETER_ENTRIES])
+        for name, part in text_chunks("OFFSET", {}, offsets).items():  # OFFSET, OFFSET2 ... past 255 channels
+            put_parameter(data, "ANALOG", name, part["value"])
     events = fit_header_events(source.events, own, markers.fps, first, markers.num_frames, trial_span(source.layout),
                                rate) if source is not None else ()
-    _put_header_events(data, events)
+    put_header_events(data, events)
     if source is not None and own:  # the slots no event uses, as the take's own file had them
         put_spare_events(data, source.layout, min(len(events), 18))
     if source is not None and source.layout:

@@ -37,7 +37,7 @@ import numpy as np
 
 __all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
            "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start",
-           "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events", "EVENT_SLOTS",
+           "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events", "header_events", "put_header_events", "EVENT_SLOTS",
            "PARAMETER_ENTRIES", "text_chunks", "put_texts", "oversized_parameter"]
 
 BLOCK = 512
@@ -82,7 +82,43 @@ def header_layout(raw: bytes) -> dict[str, int]:
 #: 0: the key 12345 (word 150), the count (151), a reserved word (152), 18 times (floats, 153-188), 18 display
 #: flag bytes (189-197), a reserved word (198) and 18 four-character labels (199-234).
 EVENT_SLOTS = 18
+# C3D header event section (16-bit words from 1): word 150 the key 12345, 151 the event count (at most 18), 152
+# reserved, 153-188 the times (floats, seconds), 189-197 a display flag byte per event, 198 reserved, 199-234 the
+# labels (4 characters each). Byte offsets of each, and of the section's end:
 _KEY, _COUNT, _RESERVED_1, _TIMES, _FLAGS, _RESERVED_2, _LABELS, _END = 298, 300, 302, 304, 376, 394, 396, 468
+
+
+def header_events(raw: bytes) -> tuple[tuple[float, str, int], ...]:
+    """The events the C3D header lists: (time s, 4-character label, display flag) each; () for none.
+
+    Files older than the EVENT parameter group (c3d.org's Eb015pi.c3d: RIC,
+    RHS, RTO) hold their gait events only here.
+    """
+    from .c3d_frames import read_float  # lazy: c3d_frames imports this module
+
+    proc = raw[(raw[0] - 1) * BLOCK + 3]
+    e = ">" if proc == 86 else "<"
+    count, = struct.unpack_from(e + "h", raw, _COUNT)
+    if not 0 < count <= EVENT_SLOTS:
+        return ()
+    out = []
+    for i in range(count):
+        t = read_float(raw, proc, _TIMES + 4 * i)
+        label = raw[_LABELS + 4 * i:_LABELS + 4 * i + 4].decode("latin-1")
+        out.append((float(t) if np.isfinite(t) else 0.0, label, raw[_FLAGS + i]))
+    return tuple(out)
+
+
+def put_header_events(data: bytearray, events) -> None:
+    """Write the C3D header's event section (see :func:`header_events`) for up to 18 events (Intel byte order)."""
+    events = list(events)[:EVENT_SLOTS]
+    if not events:
+        return
+    struct.pack_into("<hh", data, _KEY, 12345, len(events))
+    for i, (t, label, flag) in enumerate(events):
+        struct.pack_into("<f", data, _TIMES + 4 * i, float(t))
+        data[_FLAGS + i] = int(flag) & 0xFF
+        data[_LABELS + 4 * i:_LABELS + 4 * i + 4] = label.encode("latin-1", "replace")[:4].ljust(4)
 
 
 def spare_events(raw: bytes) -> dict[str, object]:
