@@ -23,7 +23,6 @@ values written exactly; a trained model's also ``meta`` (its card: :attr:`..infe
 
 from __future__ import annotations
 
-import hashlib
 import json
 from dataclasses import dataclass
 from importlib import resources
@@ -34,6 +33,7 @@ import numpy as np
 
 from ...errors import MocapFormatError
 from ...io import atomic_write
+from ...io.outputs import file_facts
 from .channels import ChannelLayout
 from .retarget import served_by
 
@@ -87,15 +87,6 @@ def layout_card(model) -> dict:
             "std": np.asarray(model.net.std, dtype=np.float64).reshape(-1).tolist()}
 
 
-def _file_facts(path: Path) -> dict:
-    """``{"size", "sha256"}`` of the file at ``path`` (read in 1 MiB pieces)."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for piece in iter(lambda: fh.read(2**20), b""):
-            h.update(piece)
-    return {"size": path.stat().st_size, "sha256": h.hexdigest()}
-
-
 def write_layout(model, model_path, *, card: bool = False) -> Path:
     """Write :func:`layout_card` of ``model`` beside ``model_path`` (``ebf.pt`` -> ``ebf.layout.json``),
     atomically (a temporary file, then a rename); returns its path. With ``card`` (``mocapkit train``, after
@@ -104,7 +95,7 @@ def write_layout(model, model_path, *, card: bool = False) -> Path:
     path = Path(model_path).with_suffix(LAYOUT_SUFFIX)
     doc = layout_card(model)
     if card:
-        doc.update(meta=model.meta if isinstance(model.meta, dict) else {}, model_file=_file_facts(Path(model_path)))
+        doc.update(meta=model.meta if isinstance(model.meta, dict) else {}, model_file=file_facts(model_path))
     with atomic_write(path, encoding="utf-8") as f:
         json.dump(doc, f, indent=1)
         f.write("\n")
@@ -147,7 +138,7 @@ def layout_beside(model_path) -> ShippedLayout | None:
     facts = kept.model_file
     if kept.meta is None or not facts or facts.get("size") != model_path.stat().st_size:
         return None
-    return kept if facts.get("sha256") == _file_facts(model_path)["sha256"] else None
+    return kept if facts.get("sha256") == file_facts(model_path)["sha256"] else None
 
 
 def _packaged_layout(name: str) -> ShippedLayout:
