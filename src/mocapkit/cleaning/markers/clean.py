@@ -295,8 +295,8 @@ class MarkerCleanResult:
         if self.review:
             # of the markers' samples: a C3D's modelled quantities (angles, forces, ...) are left as read, as info counts
             n, total = int(self.changed.sum()), self.changed.shape[0] * int((self.markers.quantities() == "").sum())
-            return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of {total} "
-                     f"marker sample{'' if total == 1 else 's'}"] + dataclasses.replace(self, review=False).summary())
+            return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of "
+                     f"{plural(total, 'marker sample')}"] + dataclasses.replace(self, review=False).summary())
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
         lines = [f"{plural(counts['gap'], 'gap')} filled ({plural(int(self.filled.sum()), 'sample')}), "
                  f"{plural(counts['spike'], 'spike')} removed ({plural(int(self.spikes.sum()), 'sample')}), "
@@ -340,7 +340,7 @@ class MarkerCleanResult:
                 (sum(1 for x in group if x.kind == "duplicate"), "duplicate labels removed"),
                 (sum(1 for x in group if x.kind == "foreign"), "another point under a label, removed")) if k)
             k = sum(x.end - x.start for x in group)
-            lines.append(f"{n} gap{'s' if n > 1 else ''} ({k} sample{'s' if k != 1 else ''}{of}) "
+            lines.append(f"{plural(n, 'gap')} ({plural(k, 'sample')}{of}) "
                          f"left missing: {why}: {shown}{more}")
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
