@@ -21,7 +21,7 @@ import struct
 import numpy as np
 
 from ..errors import MocapFormatError
-from .c3d_layout import analog_offsets
+from .c3d_layout import analog_offsets, analog_unsigned
 from ..words import plural
 
 __all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
@@ -314,10 +314,8 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
     if not channels or analog % channels:
         return xyz, None
     ratio = analog // channels
-    fmt = _value(parameters, "ANALOG", "FORMAT")
-    unsigned = fmt is not None and len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
     samples = _values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
-                      unsigned=unsigned)  # (F, ratio, A)
+                      unsigned=analog_unsigned(parameters))  # (F, ratio, A)
     offsets = analog_offsets(parameters, channels)
     scales = _value(parameters, "ANALOG", "SCALE")
     scales = np.ones(channels) if scales is None or not len(scales) else np.resize(scales.astype(np.float64), channels)

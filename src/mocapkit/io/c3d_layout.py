@@ -35,10 +35,11 @@ import struct
 
 import numpy as np
 
-__all__ = ["parameter_values", "header_layout", "offset_values", "analog_offsets", "with_offsets", "held_analogs",
-           "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap", "keep_data_start",
-           "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events", "header_events", "put_header_events", "EVENT_SLOTS",
-           "PARAMETER_ENTRIES", "text_chunks", "put_texts", "oversized_parameter"]
+__all__ = ["parameter_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
+           "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
+           "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
+           "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks", "put_texts",
+           "oversized_parameter"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -179,6 +180,13 @@ def parameter_values(parameters, group: str, name: str) -> np.ndarray:
     return np.ravel(param.get("value", [])) if isinstance(param, dict) else np.array([])
 
 
+def analog_unsigned(parameters) -> bool:
+    """Whether ANALOG:FORMAT in ezc3d's parsed layout ``parameters`` says UNSIGNED: 16-bit analog samples and
+    ANALOG:OFFSET stored unsigned (:func:`offset_values`); signed where it says SIGNED or is absent."""
+    fmt = parameter_values(parameters, "ANALOG", "FORMAT")
+    return len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
+
+
 def offset_values(raw, unsigned: bool) -> np.ndarray:
     """(A,) int: the offsets that ANALOG:OFFSET's 16-bit values ``raw`` (A,) (as parsed, -32768 to 32767) stand for.
 
@@ -202,9 +210,7 @@ def analog_offsets(parameters, channels: int) -> np.ndarray:
     ANALOG:OFFSET's values in ezc3d's parsed layout ``parameters``, read as
     :func:`offset_values` says under the file's ANALOG:FORMAT.
     """
-    fmt = parameter_values(parameters, "ANALOG", "FORMAT")
-    unsigned = len(fmt) > 0 and str(fmt[0]).strip().upper() == "UNSIGNED"
-    offsets = offset_values(parameter_values(parameters, "ANALOG", "OFFSET"), unsigned)
+    offsets = offset_values(parameter_values(parameters, "ANALOG", "OFFSET"), analog_unsigned(parameters))
     out = np.zeros(channels, dtype=np.int64)
     out[: min(len(offsets), channels)] = offsets[:channels]
     return out
