@@ -260,6 +260,24 @@ def test_a_failing_take_leaves_no_folder_behind(tmp_path, short_bvh):
     assert not (tmp_path / "none").exists()
 
 
+
+def test_a_take_whose_record_name_is_too_long_fails_before_cleaning_and_the_others_go_on(tmp_path, short_bvh):
+    # a 250-byte take name is legal, its record's (+ .clean.npz: 256 bytes) is not: the take was cleaned, then failed
+    # as its record was written (OUT_DIR new), or the whole batch died on a bare OSError (OUT_DIR there: a rerun)
+    src = tmp_path / "in"
+    src.mkdir()
+    shutil.copy(short_bvh, src / "good.bvh")
+    shutil.copy(short_bvh, src / ("a" * 246 + ".bvh"))
+    out = tmp_path / "out"
+    for run in range(2):
+        s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
+        assert [(len(Path(r["input"]).name), r["status"]) for r in s.rows] == [(250, "failed"), (8, "done" if run == 0 else "skipped")]
+        assert s.failed[0]["reason"] == ("not cleaned: its record (STEM.clean.npz) cannot be written: its name is 256 "
+                                         "bytes, more than the 255 a file name may hold; shorten the take's name")
+        assert s.failed[0]["seconds"] == 0.0  # refused before it was read
+        assert _visible(out) == ["good.bvh", "good.clean.npz"]
+        assert [p.name for p in out.rglob(".*")] == [BATCH_MARK]
+
 # -- item 5: no write after the batch is gone -----------------------------------------------
 
 

@@ -632,6 +632,21 @@ def _plan(inputs: list[Path], in_dir: Path, out_dir: Path, fmt: str, report: boo
     return plans, [inputs[k] for k in clash]
 
 
+def _unwritable(files: dict) -> str:
+    """Why a take of the batch is not cleaned, in one line, where one of its ``files`` (:func:`_take_files`) has a
+    name longer than a file system holds (:func:`mocapkit.io.outputs.name_too_long`); "" where every one fits."""
+    from .io.outputs import name_too_long
+
+    for kind, f in files.items():
+        if f is not None and (why := name_too_long(f)):
+            ending = f.name[len(files["output"].stem):] if kind != "output" else f.suffix
+            return f"not cleaned: its {_KIND[kind]} (STEM{ending}) cannot be written: {why}; shorten the take's name"
+    return ""
+
+
+_KIND = {"output": "output", "record": "record", "report": "report", "png": "summary figure"}
+
+
 def _check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs: list[Path], folders: list[Path],
                          context: list[Path], overwrite: bool, said: dict = SAID[False]) -> None:
     """Refuse the batch before any take is cleaned if one of its outputs would replace an input or another output.
@@ -780,6 +795,10 @@ def clean_batch(
     request = clean_request(steps, threshold, drifts, ctx, models, noise_deg, amc_fps, unit, joint_map)
     markers = marker_request(unit, max_gap_s, max_error_mm, zeros_as_gaps=zeros_as_gaps)
     for inp, files in zip(inputs, plans):
+        if why := _unwritable(files):  # before any take is cleaned: that take fails in one line, the others go on
+            summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "failed",
+                                 "reason": why, "seconds": 0.0})
+            continue
         if files["output"].is_file() and files["record"].is_file():
             why, anew, decided = _not_complete(inp, files, request, markers, flags)
             if not why or (decided and why.startswith("its input") and not overwrite):

@@ -268,3 +268,16 @@ def test_an_output_name_of_up_to_255_bytes_is_written_and_replaced(tmp_path):
         sweep([out])
         assert sorted(p.name for p in tmp_path.iterdir()) == [name]
         out.unlink()
+
+
+def test_an_output_name_longer_than_255_bytes_is_refused_in_one_line_before_any_work(tmp_path):
+    """A take of a 250-byte name is a legal file, but its record (stem + .clean.npz, 256 bytes) is not: the check let
+    it through where its folder did not exist yet (the take was cleaned, then its write failed) and raised a bare
+    OSError ('File name too long') where it did. Now both are refused, naming the output, as is a 'é' name of 256
+    bytes (128 characters: bytes are what the file system counts)."""
+    for folder in (tmp_path, tmp_path / "new"):
+        for name in ("a" * 246 + ".clean.npz", "\u00e9" * 126 + ".npz"):
+            with pytest.raises(MocapFormatError, match="its name is 256 bytes, more than the 255 a file name may hold"):
+                check_outputs([tmp_path / "ok.bvh", folder / name], [])
+    check_outputs([tmp_path / ("a" * 245 + ".clean.npz")], [])  # 255 bytes: fine
+    assert sorted(p.name for p in tmp_path.iterdir()) == []

@@ -8,6 +8,8 @@ every path a command will write is checked against every path it reads:
 - no two outputs may be the same file;
 - an existing output file is replaced only when ``overwrite`` is true;
 - an output that exists and is a folder, or whose parent is a file, is refused;
+- an output whose name (or a folder's along its path) is longer than :data:`NAME_MAX` bytes is refused
+  (:func:`name_too_long`): no file system can hold it, and its write failed only after the work was done;
 - an output inside a folder mocapkit replaces whole (:func:`replaced_whole_around`: a motion database, an
   accelerometer knowledge base) is refused: the folder is ``db build``'s or ``reconstruct --knowledge``'s;
 - missing parent folders are created only when the output is written
@@ -49,7 +51,7 @@ from ..interrupts import interrupts_held, whole_hand_over, whole_step
 
 __all__ = ["check_file_path", "check_outputs", "replaced_whole_around", "same_file", "inside",
            "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders",
-           "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX"]
+           "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX", "name_too_long"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -164,6 +166,10 @@ def check_outputs(
     for o in outputs:
         check_file_path(o)
     outs = [Path(o) for o in outputs if o is not None]
+    for out in outs:  # first: a name too long cannot even be looked up (stat raises "File name too long")
+        why = name_too_long(out)
+        if why:
+            raise MocapFormatError(out, f"cannot be written: {why}; choose a shorter name")
     ins = [Path(i) for i in inputs if i is not None]
     seen: list[Path] = []
     for out in outs:
@@ -230,6 +236,29 @@ def publish(tmp: os.PathLike | str, path: os.PathLike | str) -> None:
 
 NAME_MAX = 255
 """Bytes a file name may hold on Linux, macOS and Windows file systems (ext4, APFS, NTFS)."""
+
+
+def name_too_long(path: os.PathLike | str) -> str:
+    """Why ``path`` cannot be created, in words, where one of its names (the file's, a folder's) is longer than
+    :data:`NAME_MAX` bytes as the file system stores it (UTF-8); "" where every name fits.
+
+    A take named with 250 bytes is a legal file, but its record (stem + ``.clean.npz``, 256 bytes) is not: its
+    write failed with "File name too long" after the take was cleaned, or the output check itself raised it
+    (``stat`` of such a name). :func:`check_outputs` and :func:`mocapkit.batch.clean_batch` (each take's outputs,
+    before any take is cleaned) ask this.
+
+    >>> name_too_long("out/" + "a" * 245 + ".clean.npz")
+    ''
+    >>> name_too_long("out/" + "a" * 246 + ".clean.npz")
+    'its name is 256 bytes, more than the 255 a file name may hold'
+    """
+    path = Path(path)
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            where = "its name" if part == path.name else f"the name of its folder {part[:24]}..."
+            return f"{where} is {size} bytes, more than the {NAME_MAX} a file name may hold"
+    return ""
 
 
 def temp_prefix(name: str, after: int = 8 + len(".part")) -> str:
