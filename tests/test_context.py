@@ -77,6 +77,30 @@ def test_a_folder_is_built_once_then_reused_and_a_changed_file_makes_a_new_key(t
     assert C.resolve_context(takes, cache_dir=cache).num_clips == 4 and len(list(cache.iterdir())) == 3
 
 
+
+def test_a_cached_context_with_nan_poses_is_noted_as_a_database_given_is(takes, tmp_path):
+    """A context cache entry a build of mocapkit 0.14.0 or earlier left (NaN poses for a take with gaps) is opened
+    under its key still; an explicit database was checked on open (MotionDatabase.missing_note), the cache was not:
+    its NaN poses went unsaid. Both now go through one check (context.noted_missing), which names the entry."""
+    cache = tmp_path / "cache"
+    assert not any("missing joints" in n for n in C.resolve_context(takes, cache_dir=cache).info["notes"])
+    (entry,) = cache.iterdir()
+    rot = np.load(entry / "rotations.npy", mmap_mode="r+")  # what 0.14.0 cached for a take with a gap
+    rot[10:13, 5] = np.nan
+    rot.flush()
+    del rot
+    db = C.resolve_context(takes, cache_dir=cache)
+    assert db.path == entry and db.missing_frames() == 3  # opened from the cache, not rebuilt
+    said = (f"{entry}: 3 frames of {db.num_frames} have missing joints (NaN), kept by mocapkit 0.14.0 or earlier; "
+            "a search leaves their clips out and a reconstruction may fail: remove this cache entry to build it "
+            "again (a take with gaps is then left out, named)")
+    assert [n for n in db.info["notes"] if "missing joints" in n] == [said]
+    assert said in C.fit_context(mocapkit.load(takes / "cmu" / "12_walk.amc"), db)[1]  # clean's context note
+    shutil.copytree(entry, tmp_path / "db")  # the same database given as a folder: the same check, its own advice
+    given = C.resolve_context(tmp_path / "db")
+    assert [n for n in given.info["notes"] if "missing joints" in n] == [given.missing_note()]
+    assert given.missing_note().startswith(f"{tmp_path / 'db'}: 3 frames of") and "`mocapkit fill`" in given.missing_note()
+
 def test_the_key_covers_files_settings_and_the_asf(takes):
     files = C.context_files(takes)
     k = C.context_key(files)

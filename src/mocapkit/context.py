@@ -77,6 +77,7 @@ __all__ = [
     "context_take",
     "motions_context",
     "cached_context",
+    "noted_missing",
     "default_context",
     "default_context_path",
     "resolve_context",
@@ -446,6 +447,23 @@ def cached_context(files: Sequence, *, cache_dir=None, fps: float = BUILD_FPS, f
     return cached if cached is not None else _uncached(db, f"the cache entry {entry} cannot be read ({hidden})", _HIDDEN_ADVICE)
 
 
+def noted_missing(db, rebuild: str | None = None):
+    """``db`` (an opened :class:`~mocapkit.database.MotionDatabase`) with a note among its context notes
+    (``info["notes"]``) where it holds NaN poses, which mocapkit 0.14.0 and earlier kept for a take with gaps
+    (:meth:`~mocapkit.database.MotionDatabase.missing_note`; ``rebuild``: how to build it anew, in words). Said, not
+    refused: a search leaves their clips out. The one check of a context opened from disk, a database folder given
+    (``--context DB``) and a cache entry (:func:`cached_context`) alike: an entry a 0.14.0 build cached is still
+    opened under its key, and was not checked."""
+    gaps = db.missing_note(rebuild)
+    if gaps:
+        said = db.info.get("notes")
+        db.info["notes"] = [*(said if isinstance(said, list) else ()), gaps]
+    return db
+
+
+_REBUILD_ENTRY = "remove this cache entry to build it again (a take with gaps is then left out, named)"
+
+
 def _open_entry(entry: Path, label):
     """``(database, "")`` from a cache entry; ``(None, "")`` when it is missing or damaged (a damaged entry is
     removed, to be built again); ``(None, reason)`` when it is there but this user cannot read it."""
@@ -454,7 +472,7 @@ def _open_entry(entry: Path, label):
     if not entry.is_dir():
         return None, ""
     try:
-        return _labelled(MotionDatabase.open(entry), label), ""
+        return noted_missing(_labelled(MotionDatabase.open(entry), label), _REBUILD_ENTRY), ""
     except PermissionError as exc:
         return None, exc.strerror or str(exc)
     except (MocapFormatError, OSError) as exc:
@@ -542,11 +560,7 @@ def resolve_context(spec, *, default: bool = True, cache_dir=None, progress: boo
     if len(paths) == 1 and _is_database(paths[0]):
         db = MotionDatabase.open(paths[0])
         db.info["label"] = f"the database {paths[0]}"
-        gaps = db.missing_note()  # NaN poses an earlier mocapkit kept: said with the context's notes, not refused
-        if gaps:
-            said = db.info.get("notes")
-            db.info["notes"] = [*(said if isinstance(said, list) else ()), gaps]
-        return db
+        return noted_missing(db)
     files = context_files(paths)
     optional = [f for f in files if f not in paths]  # found in a folder, not named
     kw = {"cache_dir": cache_dir, "progress": progress, "label": _describe(paths), "optional": optional, "tell": tell,

@@ -938,13 +938,15 @@ class MotionDatabase:
             self._missing = n
         return self._missing
 
-    def missing_note(self) -> str:
+    def missing_note(self, rebuild: str | None = None) -> str:
         """One line for a ``note:``, naming the database and how many frames have missing joints (NaN poses an
-        earlier mocapkit kept: :meth:`missing_frames`) and how to rebuild it without them; "" when none has."""
+        earlier mocapkit kept: :meth:`missing_frames`) and how to rebuild it without them; "" when none has.
+        ``rebuild``: how, in words, where it is not a database folder the user built (a context cache entry:
+        :func:`mocapkit.context.noted_missing`)."""
         n = self.missing_frames()
         if not n:
             return ""
         name = self.path if self.path is not None else "the database"
         return (f"{name}: {plural(n, 'frame')} of {self.num_frames} {'has' if n == 1 else 'have'} missing joints "
                 "(NaN), kept by mocapkit 0.14.0 or earlier; a search leaves their clips out and a reconstruction may fail: "
-                "rebuild it from the takes filled (`mocapkit fill`; `db build` refuses a take with gaps)")
+                + (rebuild or "rebuild it from the takes filled (`mocapkit fill`; `db build` refuses a take with gaps)"))
