@@ -21,7 +21,7 @@ import struct
 import numpy as np
 
 from ..errors import MocapFormatError
-from .c3d_layout import analog_offsets, analog_unsigned
+from .c3d_layout import analog_offsets, analog_unsigned, parameter_values
 from ..words import plural
 
 __all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
@@ -148,8 +148,8 @@ def put_missing_stored(block: np.ndarray, markers) -> int:
     rows = None if markers.source is None else markers.source.missing_stored
     if rows is None or len(rows) == 0 or markers.file_labels() != markers.source.labels:
         return 0
-    stated = _value(markers.source.parameters, "POINT", "UNITS")
-    if stated is not None and np.size(stated) and str(np.ravel(stated)[0]).strip() != str(markers.units).strip():
+    stated = parameter_values(markers.source.parameters, "POINT", "UNITS")
+    if np.size(stated) and str(np.ravel(stated)[0]).strip() != str(markers.units).strip():
         return 0
     f, m = rows[:, 0].astype(np.int64), rows[:, 1].astype(np.int64)
     inside = (f < markers.num_frames) & (m < markers.num_markers)
@@ -204,15 +204,10 @@ def put_stored_zeros(block: np.ndarray, markers, scale: float) -> int:
     return int(cells.sum())
 
 
-def _value(parameters: dict, group: str, name: str):
-    """The value array of parameter GROUP:NAME in ezc3d's parsed layout, or None."""
-    param = parameters.get(group, {}).get(name)
-    return None if param is None else np.ravel(param.get("value", []))
-
-
 def _field(words) -> int | None:
-    """A TRIAL frame field: a 32-bit number in two 16-bit words, low word first (ezc3d reads them signed)."""
-    if words is None or len(words) < 2:
+    """A TRIAL frame field: a 32-bit number in two 16-bit words, low word first (ezc3d reads them signed); None
+    where ``words`` (:func:`~mocapkit.io.c3d_layout.parameter_values`) are fewer than two."""
+    if len(words) < 2:
         return None
     return (int(words[0]) & 0xFFFF) | ((int(words[1]) & 0xFFFF) << 16)
 
@@ -227,7 +222,7 @@ def trial_first(parameters: dict, header_first: int) -> int:
     high word as 65,535 frames (66,001 read as 66,000): a part of a long trial written and read back was
     numbered wrongly, and its events and ``like=`` crops placed by those numbers.
     """
-    start = _field(_value(parameters, "TRIAL", "ACTUAL_START_FIELD"))
+    start = _field(parameter_values(parameters, "TRIAL", "ACTUAL_START_FIELD"))
     if start is not None and start > FRAME_CAP and header_first & 0xFFFF in (start & 0xFFFF, FRAME_CAP):
         return start
     return header_first
@@ -260,14 +255,14 @@ def long_trial_frames(path, raw: bytes, parameters: dict, read: int, points: int
     frame_bytes = (4 * points + analog) * sample_bytes(scale)
     body = len(raw) - (data_start - 1) * 512
     held = body // frame_bytes if frame_bytes > 0 else 0
-    end, begin = _field(_value(parameters, "TRIAL", "ACTUAL_END_FIELD")), \
-        _field(_value(parameters, "TRIAL", "ACTUAL_START_FIELD"))
-    long_frames = _value(parameters, "POINT", "LONG_FRAMES")
+    end, begin = _field(parameter_values(parameters, "TRIAL", "ACTUAL_END_FIELD")), \
+        _field(parameter_values(parameters, "TRIAL", "ACTUAL_START_FIELD"))
+    long_frames = parameter_values(parameters, "POINT", "LONG_FRAMES")
     stated, who = None, ""
     if end is not None and end >= FRAME_CAP:
         stated = end - (begin if begin else max(first, 1)) + 1
         who = "TRIAL:ACTUAL_START_FIELD and ACTUAL_END_FIELD state"
-    elif long_frames is not None and len(long_frames) and np.isfinite(long_frames[0]) and long_frames[0] >= FRAME_CAP:
+    elif len(long_frames) and np.isfinite(long_frames[0]) and long_frames[0] >= FRAME_CAP:
         stated, who = int(long_frames[0]), "POINT:LONG_FRAMES states"
     if stated is not None:
         if stated < read:
@@ -310,17 +305,18 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
     frames = end - begin
     stored = _values(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, :3, :], proc, e, size)
     xyz = stored * scale if size == 2 else stored
-    channels = int((_value(parameters, "ANALOG", "USED") or [0])[0]) if analog else 0
+    used = parameter_values(parameters, "ANALOG", "USED") if analog else []
+    channels = int(used[0]) if len(used) else 0
     if not channels or analog % channels:
         return xyz, None
     ratio = analog // channels
     samples = _values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
                       unsigned=analog_unsigned(parameters))  # (F, ratio, A)
     offsets = analog_offsets(parameters, channels)
-    scales = _value(parameters, "ANALOG", "SCALE")
-    scales = np.ones(channels) if scales is None or not len(scales) else np.resize(scales.astype(np.float64), channels)
-    gen = _value(parameters, "ANALOG", "GEN_SCALE")
-    gen = float(gen[0]) if gen is not None and len(gen) else 1.0
+    scales = parameter_values(parameters, "ANALOG", "SCALE")
+    scales = np.ones(channels) if not len(scales) else np.resize(scales.astype(np.float64), channels)
+    gen = parameter_values(parameters, "ANALOG", "GEN_SCALE")
+    gen = float(gen[0]) if len(gen) else 1.0
     values = (samples - offsets) * scales * gen
     return xyz, values.transpose(2, 0, 1).reshape(channels, frames * ratio)
 
