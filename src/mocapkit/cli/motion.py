@@ -351,7 +351,7 @@ def _info_of_own_file(path: Path) -> bool:
             console.print(f"  {line}")
         return True
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
-        from ..cleaning.markers.gaps import TOO_LONG
+        from ..cleaning.markers.clean import left_too_long
         from ..cleaning.markers.record import read_marker_record
 
         rec = read_marker_record(path)
@@ -370,8 +370,7 @@ def _info_of_own_file(path: Path) -> bool:
             rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
                                        "which is the duplicate not told (left as recorded)"))
         if rec.unfilled:
-            long = sum(1 for x in rec.unfilled if str(x.get("left") if x.get("kind") in ("duplicate", "foreign")
-                                                          else x.get("note", "")).startswith(TOO_LONG))
+            long = sum(map(left_too_long, rec.unfilled))  # the rule the clean's summary counts them by
             why = [f"{n} {what}" for n, what in ((len(rec.unfilled) - long, "no plausible fill"),
                                                  (long, "longer than --max-gap")) if n]
             rows.append(("left missing", f"{plural(len(rec.unfilled), 'gap')} ({', '.join(why)})"))

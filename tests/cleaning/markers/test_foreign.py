@@ -85,7 +85,7 @@ def test_a_label_on_another_point_after_an_occlusion_is_found():
     assert find_foreign(y) == []
 
 
-def test_a_foreign_stretch_left_missing_by_max_gap_says_so_and_is_listed_with_the_gaps_left_missing(eb015):
+def test_a_foreign_stretch_left_missing_by_max_gap_says_so_and_is_listed_with_the_gaps_left_missing(eb015, tmp_path):
     # Eb015pr's LFT3 0-42 (0.86 s) removed under --max-gap 0.3: no fill was tried, as for the 0.5-0.94 s gaps. It said
     # "left missing: no plausible fill" (a fill passes without --max-gap: 5.8 mm expected), was missing from
     # res.unfilled (the summary's and `info`'s "5 gaps left missing") and counted as "duplicate labels".
@@ -99,3 +99,15 @@ def test_a_foreign_stretch_left_missing_by_max_gap_says_so_and_is_listed_with_th
     assert "no plausible fill" not in text
     assert "43 recorded samples removed as other points under their labels and left missing (longer than --max-gap)" in text
     assert "6 gaps (222 samples; 1 of them another point under a label, removed) left missing: longer than --max-gap" in text
+    # `info` of the record counts them by the rule the summary uses (left_too_long, for a MarkerFix and a record's
+    # dict alike): the CLI had its own copy of it on the dicts
+    from mocapkit.cleaning.markers.clean import left_too_long
+    from mocapkit.cleaning.markers.record import read_marker_record
+    from tests.cli.helpers import run
+
+    record = res.save(tmp_path / "eb.clean.npz")
+    assert [left_too_long(d) for d in read_marker_record(record).unfilled] == [x.too_long for x in res.unfilled] == [True] * 6
+    assert not left_too_long({"kind": "foreign", "note": "longer than --max-gap", "left": ""})  # its note is evidence
+    assert not left_too_long({"kind": "gap", "note": "no plausible fill"}) and not left_too_long({"kind": "duplicate"})
+    code, out, _ = run("info", record)
+    assert code == 0 and "left missing 6 gaps (6 longer than --max-gap)" in " ".join(out.split())

@@ -47,7 +47,7 @@ from .rigid import distance_stats
 from .spikes import longest_spike, spike_mask
 from .swaps import undo_swaps
 
-__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS"]
+__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS", "why_left", "left_too_long"]
 
 STEPS = ("swaps", "duplicates", "spikes", "gaps")
 
@@ -123,15 +123,13 @@ class MarkerFix:
 
     @property
     def why_left(self) -> str:
-        """Why this run was left missing: a gap's or a spike's :attr:`note`; a duplicate's or a foreign stretch's
-        :attr:`left` (its ``note`` is the evidence that it was removed)."""
-        return self.left if self.kind in ("duplicate", "foreign") else self.note
+        """Why this run was left missing (:func:`why_left`)."""
+        return why_left(self)
 
     @property
     def too_long(self) -> bool:
-        """Whether this gap was left missing because it is longer than ``max_gap_s`` (``--max-gap``): no fill was
-        tried, so none was found implausible."""
-        return self.why_left.startswith(TOO_LONG)
+        """Whether this gap was left missing because it is longer than ``max_gap_s`` (:func:`left_too_long`)."""
+        return left_too_long(self)
 
     @property
     def left_text(self) -> str:
@@ -171,6 +169,22 @@ class MarkerFix:
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
         text = what.format(f"{self.size_mm:.1f}")
         return f"{self.fill_text}; {text}" if self.kind == "gap" else text
+
+
+def why_left(fix) -> str:
+    """Why a run was left missing: a gap's or a spike's ``note``; a duplicate's or a foreign stretch's ``left`` (its
+    ``note`` is the evidence that it was removed). ``fix``: a :class:`MarkerFix`, or a record's dict of its fields
+    (:attr:`mocapkit.cleaning.markers.record.MarkerRecord.unfilled`; a field it lacks, an earlier record's, is "")."""
+    get = fix.get if isinstance(fix, dict) else lambda name, default: getattr(fix, name, default)
+    said = get("left", "") if get("kind", "") in ("duplicate", "foreign") else get("note", "")
+    return "" if said is None else str(said)
+
+
+def left_too_long(fix) -> bool:
+    """Whether a gap (:func:`why_left`'s ``fix``) was left missing because it is longer than ``max_gap_s``
+    (``--max-gap``): no fill was tried, so none was found implausible. One rule for a clean's summary, its report
+    and ``mocapkit info`` of its record."""
+    return why_left(fix).startswith(TOO_LONG)
 
 
 @dataclass(frozen=True)
