@@ -51,7 +51,8 @@ files a killed worker could not remove are swept before and after a batch;
 a worker killed between the rename of ``OUT`` and of its record leaves an
 output without a record, which the next run refuses without ``overwrite``.
 
-One failing take is reported (file and a one-line reason) and skipped; the
+One failing take is reported (file and a one-line reason) and skipped (one whose output, record or report name
+a file system cannot hold, :func:`mocapkit.io.outputs.name_too_long`, before any take is cleaned); the
 others go on, except after a full disk, a used-up quota or a read-only file
 system (:func:`mocapkit.errors.output_stopper`): no later take could be
 written either, so the batch hands out no more takes, lets those under way
