@@ -18,7 +18,7 @@ LAYERS = {
     "database": 3, "database_folder": 3, "context": 3, "search": 3,
     "cleaning": 4, "reconstruct": 4, "reference": 4,
     "report": 5,
-    "batch": 6, "batch_decided": 6, "batch_folder": 6, "batch_request": 6, "batch_written": 6, "warmup": 6, "marker_files": 6,
+    "batch": 6, "batch_decided": 6, "batch_folder": 6, "batch_plan": 6, "batch_request": 6, "batch_written": 6, "warmup": 6, "marker_files": 6,
     "cli": 7, "__main__": 7, "": 7,  # the package's __init__: mocapkit.clean, load, save at the top
 }
 
