@@ -24,12 +24,12 @@ from mocapkit.motion import concatenate
 STEPS = ["fill"]  # the cheapest pipeline: these tests are about files, not about cleaning
 
 
-def _tree(d: Path) -> dict:
+def file_tree(d: Path) -> dict:
     """Every file under ``d`` (hidden ones included) -> its sha256."""
     return {str(p.relative_to(d)): hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(d.rglob("*")) if p.is_file()}
 
 
-def _visible(d: Path) -> list[str]:
+def visible_files(d: Path) -> list[str]:
     """Files under ``d`` that are not hidden temporaries or staging folders."""
     if not d.exists():
         return []
@@ -66,88 +66,16 @@ def walk_in(tmp_path, short_bvh) -> Path:
     return src
 
 
-# -- names -------------------------------------------------------------------------------
-
-
-def test_output_for_mirrors_folders_and_picks_the_suffix():
-    i, o = Path("in"), Path("out")
-    assert output_for(i / "a" / "b" / "walk.amc", i, o) == o / "a" / "b" / "walk.bvh"
-    assert output_for(i / "walk.NPZ", i, o) == o / "walk.npz"
-    assert output_for(i / "walk.bvh", i, o, fmt="npz") == o / "walk.npz"
-    assert output_for(i / "walk.v2.bvh", i, o, fmt="npz", keep_suffix=True) == o / "walk.v2-bvh.npz"
-
-
-def test_find_inputs_patterns_records_hidden_and_excluded(tmp_path):
-    for rel in ("a/walk.bvh", "a/walk.clean.npz", "a/walk.mask.npz", "a/.hidden.bvh", "b/run.amc", "b/run.asf",
-                "notes.txt", "out/old.bvh", "c/x.npz"):
-        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
-        (tmp_path / rel).write_text("x")
-    names = [p.relative_to(tmp_path).as_posix() for p in find_inputs(tmp_path, exclude=tmp_path / "out")]
-    assert names == ["a/walk.bvh", "b/run.amc", "c/x.npz"]
-    assert [p.name for p in find_inputs(tmp_path, ["*.BVH"])] == ["walk.bvh", "old.bvh"]
-
-
-# -- item 4: colliding takes ---------------------------------------------------------------
-
-
-def test_takes_sharing_a_name_keep_their_suffix_and_resume(twins, tmp_path):
-    out = tmp_path / "out"
-    s = clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
-    assert isinstance(s, BatchSummary) and s.count("done") == 2 and not s.failed, s.rows
-    assert sorted(Path(p).name for p in s.renamed) == ["take.amc", "take.bvh"]
-    assert _visible(out) == ["take-amc.bvh", "take-amc.clean.npz", "take-bvh.bvh", "take-bvh.clean.npz"]
-    a, b = mocapkit.load(out / "take-amc.bvh"), mocapkit.load(out / "take-bvh.bvh")
-    assert (a.num_frames, b.num_frames) == (30, 40)  # each output is its own take's
-    before = _tree(out)
-    again = clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
-    assert again.count("skipped") == 2 and again.count("done") == 0
-    assert _tree(out) == before
-
-
-def test_bvh_and_npz_of_one_name_share_the_record_so_both_keep_their_suffix(tmp_path, short_bvh):
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "take.bvh")
-    mocapkit.save(mocapkit.load(short_bvh), src / "take.npz")
-    shutil.copy(short_bvh, src / "other.bvh")
-    s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
-    assert s.count("done") == 3
-    assert _visible(tmp_path / "out") == ["other.bvh", "other.clean.npz", "take-bvh.bvh", "take-bvh.clean.npz",
-                                          "take-npz.clean.npz", "take-npz.npz"]
-
-
-def test_a_bvh_and_a_c3d_of_one_name_are_named_after_their_format_never_a_doubled_suffix(tmp_path, short_bvh):
-    """take.bvh and take.c3d in one folder share only the record take.clean.npz: they were written as
-    take.bvh.bvh and take.c3d.c3d. Each is named after its format instead, with its own record, and the
-    summary lists both."""
-    src = tmp_path / "in"
-    src.mkdir()
-    shutil.copy(short_bvh, src / "take.bvh")
-    shutil.copy(samples.path("Eb015pr.c3d"), src / "take.c3d")
-    s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
-    assert sorted(Path(p).name for p in s.renamed) == ["take.bvh", "take.c3d"]
-    assert sorted(Path(r["output"]).name for r in s.rows) == ["take-bvh.bvh", "take-c3d.c3d"]
-    assert all(".bvh.bvh" not in name and ".c3d.c3d" not in name for name in _visible(tmp_path / "out"))
-
-
-def test_takes_that_still_collide_refuse_the_batch(twins, tmp_path):
-    (twins / "take-amc.bvh").write_text("not read: the batch is refused first")
-    out = tmp_path / "out"
-    with pytest.raises(MocapFormatError, match=r"take[-.]amc.*would write .*take-amc\.bvh, as .*take[-.]amc(\.bvh)? does; rename one"):
-        clean_batch(twins, out, steps=STEPS, executor="serial", progress=False)
-    assert not out.exists()
-
-
 # -- item 4: the output guard, before any take is cleaned ----------------------------------------
 
 
 def test_out_dir_that_is_in_dir_through_a_link_is_refused(twins, tmp_path):
     link = tmp_path / "link"
     link.symlink_to(twins, target_is_directory=True)
-    before = _tree(twins)
+    before = file_tree(twins)
     with pytest.raises(MocapFormatError, match="refusing to write into the input folder"):
         clean_batch(twins, link, steps=STEPS, executor="serial", progress=False)
-    assert _tree(twins) == before
+    assert file_tree(twins) == before
 
 
 def test_output_that_resolves_to_an_input_through_a_link_is_refused(tmp_path, short_bvh):
@@ -158,10 +86,10 @@ def test_output_that_resolves_to_an_input_through_a_link_is_refused(tmp_path, sh
     out = tmp_path / "out"
     out.mkdir()
     (out / "a").symlink_to(src / "a", target_is_directory=True)  # out/a/walk.bvh is the input in/a/walk.bvh
-    before = _tree(src)
+    before = file_tree(src)
     with pytest.raises(MocapFormatError, match=r"refusing to write over an input"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
-    assert _tree(src) == before and _visible(out) == []  # refused before first.bvh (sorted first) was cleaned
+    assert file_tree(src) == before and visible_files(out) == []  # refused before first.bvh (sorted first) was cleaned
 
 
 def test_output_that_is_a_hard_link_of_an_input_is_refused(tmp_path, short_bvh, walk_in):
@@ -181,7 +109,7 @@ def test_output_inside_in_dir_is_refused_unless_under_out_dir(tmp_path, short_bv
     shutil.copy(short_bvh, root / "takes" / "takes" / "x.bvh")
     with pytest.raises(MocapFormatError, match="refusing to write over an input"):  # IN_DIR inside OUT_DIR: root/takes/x.bvh
         clean_batch(root / "takes", root, steps=STEPS, executor="serial", progress=False)
-    assert _visible(root) == ["takes/takes/x.bvh"]
+    assert visible_files(root) == ["takes/takes/x.bvh"]
     s = clean_batch(root, root / "cleaned", steps=STEPS, executor="serial", progress=False)  # OUT_DIR below IN_DIR: fine
     assert s.count("done") == 1 and (root / "cleaned" / "takes" / "takes" / "x.bvh").is_file()
     again = clean_batch(root, root / "cleaned", steps=STEPS, executor="serial", progress=False)
@@ -210,10 +138,10 @@ def test_existing_outputs_need_overwrite_but_complete_takes_resume(tmp_path, sho
     (out / "c.bvh").unlink()
     (out / "c.bvh").write_text("someone else's file")
     (out / "c.clean.npz").unlink()
-    before = _tree(out)
+    before = file_tree(out)
     with pytest.raises(MocapFormatError, match=r"b\.bvh: already exists; pass overwrite=True"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
-    assert _tree(out) == before  # refused before anything was cleaned
+    assert file_tree(out) == before  # refused before anything was cleaned
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
     assert [r["status"] for r in s.rows] == ["skipped", "done", "done"]
     assert mocapkit.load(out / "c.bvh").num_frames == 40
@@ -239,7 +167,7 @@ def test_a_failing_take_is_a_row_and_the_others_go_on(tmp_path, short_bvh):
     s = clean_batch(src, tmp_path / "out", steps=STEPS, executor="serial", progress=False)
     assert [(Path(r["input"]).name, r["status"]) for r in s.rows] == [("broken.bvh", "failed"), ("good.bvh", "done")]
     assert "broken.bvh" in s.failed[0]["reason"] and "\n" not in s.failed[0]["reason"]
-    assert _visible(tmp_path / "out") == ["good.bvh", "good.clean.npz"]
+    assert visible_files(tmp_path / "out") == ["good.bvh", "good.clean.npz"]
     assert [p.name for p in (tmp_path / "out").rglob(".*")] == [BATCH_MARK]  # no staging folder or temporary left
 
 
@@ -275,7 +203,7 @@ def test_a_take_whose_record_name_is_too_long_fails_before_cleaning_and_the_othe
         assert s.failed[0]["reason"] == ("not cleaned: its record (STEM.clean.npz) cannot be written: its name is 256 "
                                          "bytes, more than the 255 a file name may hold; shorten the take's name")
         assert s.failed[0]["seconds"] == 0.0  # refused before it was read
-        assert _visible(out) == ["good.bvh", "good.clean.npz"]
+        assert visible_files(out) == ["good.bvh", "good.clean.npz"]
         assert [p.name for p in out.rglob(".*")] == [BATCH_MARK]
 
 # -- item 5: no write after the batch is gone -----------------------------------------------
@@ -347,7 +275,7 @@ def test_kill_9_of_the_batch_takes_its_workers_and_their_writes(long_takes, tmp_
     proc.kill()
     proc.wait()
     _wait_for(lambda: all(_gone(pid) for pid in workers), "the workers to die")
-    assert _visible(out) == []  # nothing was moved into place, and no worker is left to do it
+    assert visible_files(out) == []  # nothing was moved into place, and no worker is left to do it
 
 
 @pytest.mark.slow  # ~11 s each of a dask cluster starting and dying: `pytest -m slow`
@@ -365,7 +293,7 @@ def test_kill_9_of_a_dask_client_writes_nothing_on_the_cluster(long_takes, tmp_p
         proc.wait()
         # the worker lives on and finishes cleaning; the cancelled take then removes its staging folder
         _wait_for(lambda: not _staging(out), "the cancelled take to give up")
-    assert _visible(out) == []
+    assert visible_files(out) == []
 
 
 @pytest.mark.slow  # ~11 s each of a dask cluster starting and dying: `pytest -m slow`
@@ -381,7 +309,7 @@ def test_kill_9_of_a_batch_on_its_own_dask_cluster_takes_the_cluster(long_takes,
     proc.kill()
     proc.wait()
     _wait_for(lambda: all(_gone(pid) for pid in workers), "the Dask workers to die")
-    assert _visible(out) == []
+    assert visible_files(out) == []
 
 
 def test_a_complete_take_whose_output_is_an_input_is_refused_not_skipped(tmp_path, short_bvh):
@@ -530,7 +458,7 @@ def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, monkey
     src = walk_in
     out = tmp_path / "out"
     clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
-    before = _tree(out)
+    before = file_tree(out)
     real = os.replace
 
     def interrupted_at_the_record(a, b, *args, **kwargs):
@@ -542,7 +470,7 @@ def test_an_interrupted_overwrite_leaves_the_earlier_take_whole(tmp_path, monkey
     with pytest.raises(KeyboardInterrupt):
         clean_batch(src, out, steps=["fill", "denoise"], executor="serial", progress=False, report=True,
                     overwrite=True)
-    assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
+    assert file_tree(out) == before  # the earlier take, report and record, and no hidden copy left
 
 
 @pytest.mark.usefixtures("python_sigint")  # the second interrupt, deferred, is a real SIGINT sent again later
@@ -557,7 +485,7 @@ def test_a_second_interrupt_as_the_undo_begins_still_puts_the_earlier_take_back(
     src = walk_in
     out = tmp_path / "out"
     clean_batch(src, out, steps=STEPS, executor="serial", progress=False, report=True)
-    before = _tree(out)
+    before = file_tree(out)
     real, first = os.replace, []
 
     def interrupted_at_the_record(a, b, *args, **kwargs):
@@ -590,7 +518,7 @@ def test_a_second_interrupt_as_the_undo_begins_still_puts_the_earlier_take_back(
         except KeyboardInterrupt as exc:
             came.append(str(exc))
     assert landed and len(came) in (1, 2)
-    assert _tree(out) == before  # the earlier take, report and record, and no hidden copy left
+    assert file_tree(out) == before  # the earlier take, report and record, and no hidden copy left
 
 
 def test_a_record_that_cannot_be_read_is_not_a_complete_take(tmp_path, walk_in):
@@ -748,11 +676,11 @@ def test_a_second_batch_of_another_folder_does_not_replace_a_take_of_the_same_na
     shutil.copy(short_bvh, first / "take.bvh")
     mocapkit.save(mocapkit.load(short_bvh)[:30], second / "take.bvh")  # another take of the same name
     assert clean_batch(first, out, steps=STEPS, executor="serial", progress=False).count("done") == 1
-    before = _tree(out)
+    before = file_tree(out)
     with pytest.raises(MocapFormatError, match=r"take\.bvh: exists from an earlier run, but it was cleaned from another "
                                                r"file of the same name; use overwrite=True"):
         clean_batch(second, out, steps=STEPS, executor="serial", progress=False)
-    assert _tree(out) == before
+    assert file_tree(out) == before
     moved = tmp_path / "moved"
     first.rename(moved)
     assert clean_batch(moved, out, steps=STEPS, executor="serial", progress=False).count("skipped") == 1
@@ -770,11 +698,11 @@ def test_an_output_changed_outside_mocapkit_is_not_complete(tmp_path, short_bvh,
     clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
     data = (out / "a.bvh").read_bytes()
     (out / "a.bvh").write_bytes(data[:1000] if damage == "truncate" else data[:-2] + b"9\n")
-    before = _tree(out)
+    before = file_tree(out)
     with pytest.raises(MocapFormatError, match=r"a\.bvh: exists from an earlier run, but its output was changed since "
                                                r"that run wrote it.*use overwrite=True"):
         clean_batch(src, out, steps=STEPS, executor="serial", progress=False)
-    assert _tree(out) == before
+    assert file_tree(out) == before
     s = clean_batch(src, out, steps=STEPS, executor="serial", progress=False, overwrite=True)
     assert s.count("done") == 1 and (out / "a.bvh").read_bytes() == data
 
@@ -907,7 +835,7 @@ def test_a_full_disk_stops_the_batch_and_a_rerun_resumes(tmp_path, short_bvh, mo
     assert [r["status"] for r in s.rows] == ["done", "failed"] and s.rows[1]["errno"] == code
     assert s.not_started == 4 and s.stopped.startswith(f"{out / 't1.bvh'}: ")
     assert "stopped: 1 of 6 takes complete, 4 not started; the same command resumes the rest" in s.stopped
-    assert _visible(out) == ["t0.bvh", "t0.clean.npz"]
+    assert visible_files(out) == ["t0.bvh", "t0.clean.npz"]
     monkeypatch.undo()
     again = clean_batch(src, out, steps=STEPS, executor="serial", progress=False)  # room again: it resumes
     assert [r["status"] for r in again.rows] == ["skipped"] + ["done"] * 5 and not again.stopped
@@ -949,7 +877,7 @@ def test_a_batch_report_names_the_record_where_it_is_placed(tmp_path, walk_in):
     out = tmp_path / "out"
     s = clean_batch(walk_in, out, steps=["fill", "detect"], executor="serial", progress=False, report=True)
     assert s.count("done") == 1, s.rows
-    page = next(out.glob("*.html")).read_text()
+    page = (out / "walk.report.html").read_text()
     assert ".part" not in page
     assert str(out / "walk.clean.npz") in page
 
@@ -961,7 +889,7 @@ def test_a_batch_report_of_a_marker_capture_names_the_record_where_it_is_placed(
     out = tmp_path / "out"
     s = clean_batch(src, out, executor="serial", progress=False, report=True)
     assert s.count("done") == 1, s.rows
-    page = next(out.glob("*.html")).read_text()
+    page = (out / "Eb015pr.report.html").read_text()
     assert ".part" not in page
     assert str(out / "Eb015pr.clean.npz") in page
 

@@ -82,6 +82,7 @@ from .batch_plan import DEFAULT_PATTERNS, check_batch_outputs, find_inputs, outp
 from .batch_request import REQUEST_DEFAULTS, clean_request, request_change
 from .interrupts import interrupts_as_keyboard_interrupt, interrupts_held, whole_step
 from .marker_files import clean_marker_file, joint_angle_options, marker_request, refuse_marker_options
+from .report.batch_index import INDEX_NAME, is_batch_index
 from .words import plural
 
 __all__ = ["clean_file", "clean_marker_file", "clean_request", "marker_request", "refuse_marker_options", "clean_batch", "find_inputs", "output_for", "BatchSummary", "DEFAULT_PATTERNS", "BATCH_MARK",
@@ -394,6 +395,7 @@ class BatchSummary:
     earlier: list = field(default_factory=list)
     stopped: str = ""
     not_started: int = 0
+    index: Path | None = None
 
     def count(self, status: str) -> int:
         return sum(r["status"] == status for r in self.rows)
@@ -598,7 +600,7 @@ def clean_batch(
     """
     from .cleaning.pipeline import STEPS, check_noise_deg, parse_steps
     from .context import is_off
-    from .io.outputs import inside, missing_folders, resolved
+    from .io.outputs import check_outputs, inside, missing_folders, resolved
     from .parallel import check_executor, check_jobs, describe_executor, map_ordered
 
     in_dir, out_dir = Path(in_dir), Path(out_dir)
@@ -661,6 +663,10 @@ def clean_batch(
     earlier_outputs = {out for out, _ in stale} | {files["output"] for inp, files in todo if inp in again}
     check_batch_outputs(plans, todo if overwrite else [t for t in todo if t[1]["output"] not in earlier_outputs],
                         inputs, folders, ctx, overwrite, f"pass {SAID[flags]['overwrite']}")  # an output that is an input: refused first
+    index = out_dir / INDEX_NAME if report else None  # the overview of every take, the batch's own file
+    if index is not None:
+        check_outputs([index], [*ctx, *folders], overwrite=overwrite or is_batch_index(index),
+                      how=f"it is not a batch's overview; pass {SAID[flags]['overwrite']}")
     if stale and not overwrite:  # an earlier run's take, made otherwise: not this run's to skip, nor to replace silently
         more = f" ({len(stale) - 1} more take{'s' if len(stale) > 2 else ''} alike)" if len(stale) > 1 else ""
         raise MocapFormatError(stale[0][0], f"exists from an earlier run, but {stale[0][1]}; use {SAID[flags]['overwrite']} to clean "
@@ -717,6 +723,9 @@ def clean_batch(
             rows = map_ordered(_batch_job, work, executor=executor, progress=progress, desc="clean", max_workers=jobs,
                                on_result=finished_take, option=executor_option) if work else []
             finished = True
+            if index is not None:
+                summary.index = _write_index(index, summary.rows + [r for r in rows if r is not None], plans, inputs,
+                                             in_dir, out_dir, request)
         except BaseException:  # an interrupt: a take written whose row never came is said from its record
             _tell_written(todo, said, request, markers, tell)
             raise
@@ -736,6 +745,40 @@ def clean_batch(
                            f"{summary.not_started} not started; the same command resumes the rest")
     summary.seconds = time.perf_counter() - t0
     return summary
+
+
+def _write_index(index: Path, rows: list, plans: list, inputs: list, in_dir: Path, out_dir: Path,
+                 request: dict) -> Path | None:
+    """Write the batch's overview ``index`` (:func:`mocapkit.report.batch_index.write_batch_index`) of ``rows``, each
+    with its report and, for a complete take skipped this run, its counts and the decisions file that decided it,
+    read from its record; None (nothing written) where no take is complete: the folder keeps no page of failures."""
+    from . import __version__
+    from .batch_decided import decided_by
+    from .batch_written import row_from_record
+    from .cleaning.pipeline import CleanResult
+    from .report.batch_index import write_batch_index
+
+    files_of = {str(inp): files for inp, files in zip(inputs, plans)}
+    shown = []
+    for row in rows:
+        files = files_of.get(row["input"]) or {}
+        row = {**row, "report": files.get("report") if row["status"] != "failed" else None}
+        if row["status"] == "skipped" and files:
+            try:
+                counts = row_from_record(row["input"], files["output"], files["record"])
+                params = CleanResult.load_params(files["record"])
+            except MocapError:  # an unreadable record: the take is listed, without its counts
+                counts, params = {}, None
+            row.update({k: v for k, v in counts.items() if k not in ("status", "reason", "seconds")},
+                       decided=decided_by(params, files["output"]))
+        shown.append(row)
+    if not any(r["status"] != "failed" for r in shown):
+        return None
+    context = request.get("context")
+    said = [f"steps {','.join(request.get('steps') or [])}", f"threshold {request.get('threshold'):g}",
+            "the default context" if context == "default" else f"context {', '.join(map(str, context or []))}"]
+    return write_batch_index(index, shown, in_dir=in_dir, out_dir=out_dir, request=", ".join(said),
+                             version=__version__)
 
 
 def _tell_written(todo: list, said: set, request: dict, markers: dict, tell: Callable[[dict], None]) -> None:

@@ -376,7 +376,7 @@ def clean_batch(
         help="Takes cleaned at once on local processes (default: one per core). --jobs 1 cleans them one by one "
              "in this process, leaving the other cores free.",
     ),
-    report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output."),
+    report: bool = typer.Option(False, "--report", help="Also write STEM.report.html beside each output, and OUT_DIR/index.html: every take linked to its report, failed and most changed first."),
     png: bool = typer.Option(False, "--png", help="Also write STEM.summary.png beside each output."),
     pattern: str = typer.Option("*.bvh,*.amc,*.npz,*.c3d,*.trc", "--pattern", help="Comma-separated file name patterns to clean."),
     fmt: str = typer.Option("auto", "--format", help="Output format: auto (.bvh, .npz, .c3d and .trc kept, .amc -> .bvh), bvh, amc (ASF/AMC takes as AMC, each take's ASF copied beside it; BVH and .npz takes keep their format) or npz; marker captures keep their format."),
@@ -446,7 +446,8 @@ def clean_batch(
         raise
     if as_json:
         print(json.dumps({"rows": summary.rows, "seconds": summary.seconds, "executor": summary.executor,
-                          "earlier": summary.earlier, "renamed": summary.renamed, "stopped": summary.stopped}))
+                          "earlier": summary.earlier, "renamed": summary.renamed, "stopped": summary.stopped,
+                          "index": None if summary.index is None else str(summary.index)}))
     else:
         for folder in summary.earlier:
             console.print(f"left out {folder}: an earlier batch's outputs")
@@ -457,6 +458,8 @@ def clean_batch(
                       f"{summary.seconds:.1f} s: {summary.count('done')} {done}, {summary.count('skipped')} already "
                       f"complete, {summary.count('failed')} failed"
                       + (f", {summary.not_started} not started" if summary.stopped else ""))
+        if summary.index is not None:
+            console.print(f"wrote {summary.index}: every take with its report, the takes to look at first")
         if not summary.rows and not summary.not_started:  # a mistyped folder or pattern said only "0 takes"
             print(f"warning: {in_dir}: no file matches --pattern {','.join(patterns)} (searched recursively"
                   + (", earlier batches' output folders left out" if summary.earlier else "") + "); nothing cleaned",
