@@ -78,6 +78,23 @@ def test_the_fallback_filter_is_guarded_too_and_kept_cells_are_bit_identical(squ
     assert np.array_equal(out.rotations[:, 0], noisy.rotations[:, 0])
 
 
+def test_the_python_denoiser_keeps_what_the_command_keeps():
+    """Trial T1: ``deep.denoise``, the Python denoiser the guides show, had no guard: on the clean CMU 131_02 it
+    turned RThumb by up to 58 deg (the 3dsMax BVH's own thumb flips, smoothed as noise) where ``mocapkit denoise``
+    keeps those cells. It now takes the command's path (``denoise_take``), bit for bit, its note a UserWarning;
+    ``guard=False`` gives the network's own output. The bundled 131_01, same converter: 49 deg -> kept."""
+    from mocapkit.cleaning import deep
+
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[160:260]
+    j = take.skeleton.index("RThumb")
+    with pytest.warns(UserWarning, match=r"^131_01: \d+ cells kept as they came: .*RThumb"):
+        out = deep.denoise(take)
+    assert np.array_equal(out.rotations, denoise_take(take)[0].rotations)
+    assert np.max(rotation_angle(take.rotations[:, j], out.rotations[:, j])) < 3.0
+    raw = deep.denoise(take, guard=False)
+    assert np.max(rotation_angle(take.rotations[:, j], raw.rotations[:, j])) > 30.0
+
+
 def test_rotation_angle_and_midpoint_deviation_on_known_rotations():
     about_x = lambda deg: R.euler_to_quaternion(np.array([[deg, 0.0, 0.0]]), "XYZ")[0]
     a, b = about_x(10.0), about_x(-20.0)

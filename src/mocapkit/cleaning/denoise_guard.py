@@ -45,7 +45,8 @@ from ..words import plural
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
-           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "window_step_table", "jump_steps", "motion_speed"]
+           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "window_step_table", "jump_steps", "motion_speed",
+           "guarded_take"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
@@ -413,3 +414,29 @@ def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str,
     rot = np.where(kept[..., None], motion.rotations, out.rotations)
     said = _kept_note(kept, motion)
     return dataclasses.replace(out, rotations=rot), method, f"{note}; {said}" if note else said
+
+
+def guarded_take(motion: Motion, cells: np.ndarray | None, run, *, zeros=None,
+                 measured: bool = True) -> tuple[Motion, str, str]:
+    """The denoise of a take that ``mocapkit denoise``, ``clean``'s denoise step
+    (:func:`mocapkit.cleaning.whole_take.denoise_take`) and :func:`mocapkit.cleaning.deep.denoise` share: ``run``
+    (as for :func:`guarded`) under :func:`guarded`, with the take's channels written as 0 where the capture lost
+    data (:func:`~mocapkit.cleaning.zeros.find_zeros`; ``zeros``: its result when the caller has it) missing to
+    ``run`` and back as written, and a filled cell's measured channels kept where its missing ones explain the
+    denoise (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`; ``measured`` False: left to a caller
+    that has the whole take of a part it denoises). Returns ``(motion, method, note)``, the note saying the cells
+    kept as they came and the measured channels kept; every kept cell is bit-identical to the input."""
+    from .measured import keep_measured_in_denoise, kept_note
+    from .zeros import as_missing, find_zeros
+
+    zc, runs, zf = find_zeros(motion) if zeros is None else zeros
+    src = as_missing(motion, zc, zf) if runs else motion
+    out, method, note = guarded(src, cells, run)
+    if runs:  # the lost samples as written; positions, which denoising keeps, as they were
+        rot = np.where(zc[..., None], motion.rotations, out.rotations)
+        out = dataclasses.replace(out, rotations=rot, root_positions=motion.root_positions,
+                                  translations=motion.translations)
+    if measured:  # a filled cell's measured channels kept where its missing ones explain the denoise
+        out, kept, stood = keep_measured_in_denoise(motion, out)
+        note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
+    return out, method, note

@@ -55,8 +55,8 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from ..words import plural
 from .calibration import calibration_mask, calibration_poses
-from .denoise_guard import guarded
-from .measured import keep_measured, keep_measured_in_denoise, keep_measured_in_repair, kept_note, measured_axes
+from .denoise_guard import guarded_take
+from .measured import keep_measured, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -200,28 +200,18 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     missing to the filter (the EBF reads around them, as around a gap) and come back as they were: read as motion,
     a dropout's jump into 0 and out was spread over the good frames beside it (a Bandai Namco hip zeroed for 40
     frames: its 5 frames on each side turned by up to 80 deg). A cell the denoiser moves further than the take's
-    noise explains is kept as it came, and its neighbours denoised without it (:func:`~mocapkit.cleaning.denoise_guard.guarded`,
+    noise explains is kept as it came, and its neighbours denoised without it (:func:`~mocapkit.cleaning.denoise_guard.guarded_take`,
     said in the note). A denoised cell its BVH or AMC file gives partly ``nan`` (filled) keeps its measured channels
     where its missing ones reach the denoised rotation (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`,
     said in the note; ``measured`` False leaves that to a caller that has the whole take of a part it denoises).
     ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
     """
-    from dataclasses import replace
-
     from . import deep  # torch: only once there is something to denoise
 
-    zc, runs, zf = find_zeros(motion) if zeros is None else zeros
     ebf, label = resolve_model(ebf)
-    src = as_missing(motion, zc, zf) if runs else motion
-    out, method, note = guarded(src, cells, lambda m, c: deep.denoise_or_fallback(m, ebf, cells=c, label=label,
-                                                                               options=options))
-    if runs:  # the lost samples as written; positions, which denoising keeps, as they were
-        rot = np.where(zc[..., None], motion.rotations, out.rotations)
-        out = replace(out, rotations=rot, root_positions=motion.root_positions, translations=motion.translations)
-    if measured:  # a filled cell's measured channels kept where its missing ones explain the denoise
-        out, kept, stood = keep_measured_in_denoise(motion, out)
-        note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
-    return out, method, note
+    return guarded_take(motion, cells, lambda m, c: deep.denoise_or_fallback(m, ebf, cells=c, label=label,
+                                                                             options=options),
+                        zeros=zeros, measured=measured)
 
 
 def check_no_zeros(motion: Motion, runs=None, span: tuple[int, int] | None = None) -> None:

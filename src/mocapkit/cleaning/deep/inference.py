@@ -608,7 +608,7 @@ def fill_channels(
 # -- Motion level ----------------------------------------------------------------------
 
 
-def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Motion:
+def denoise(motion: Motion, model=None, cells: np.ndarray | None = None, *, guard: bool = True) -> Motion:
     """Denoise every non-root joint of ``motion`` with the EBF (Mall 3); root trajectory and rotation kept.
 
     ``model``: a :class:`DeepModel`, a model file, or None for the shipped
@@ -616,10 +616,15 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     such as ``ebf_bandai.pt`` for the Bandai Namco game rig). A model whose licence restricts use (the Bandai
     Namco models are CC BY-NC: non-commercial) is said by a :class:`~mocapkit.errors.LicenceWarning`
     (:func:`licence_note`), as the CLI says it. Frames and skeleton are the input's; missing joints stay missing.
-    ``cells`` (F, J) bool: denoise only these cells, the others are returned
-    bit-identical; the network then runs only up to the frames they need
-    (:func:`denoise_channels`' ``until``), and the denoised cells are the
-    same as a run on every cell gives.
+    ``cells`` (F, J) bool: denoise only these cells, the others are returned bit-identical.
+
+    ``guard`` (default): the ``mocapkit denoise`` command's result, bit for bit
+    (:func:`~mocapkit.cleaning.denoise_guard.guarded_take`): a cell the network moves further than the take's
+    noise explains (a flip the file holds, CMU 131_02's RThumb: up to 58 deg moved on a clean take without it)
+    is kept as it came and its neighbours denoised without it, channels written as 0 where the capture lost data
+    are left as written, and the command's note on them is a ``UserWarning``. ``guard=False``: the network's
+    own output, nothing kept; the network then runs only up to the frames ``cells`` need
+    (:func:`denoise_channels`' ``until``), and the denoised cells are the same as a run on every cell gives.
 
     >>> import mocapkit
     >>> from mocapkit import corrupt, metrics
@@ -632,7 +637,16 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None) -> Moti
     """
     sv = serving(motion, model, "ebf")
     warn_licence(sv.model, {"ebf": "model="})
-    return _denoise(motion, sv, cells)
+    if not guard:
+        return _denoise(motion, sv, cells)
+    from ..denoise_guard import guarded_take
+
+    out, _, note = guarded_take(motion, cells, lambda m, c: (_denoise(m, serving(m, model, "ebf"), c), "", ""))
+    if note:
+        import warnings
+
+        warnings.warn(f"{motion.name or 'motion'}: {note}", UserWarning, stacklevel=2)
+    return out
 
 
 def _denoise(motion: Motion, sv: Serving, cells: np.ndarray | None) -> Motion:
