@@ -115,3 +115,25 @@ def test_a_marker_file_read_with_the_wrong_vertical_is_said():
     assert note(y_up, "y") == ""
     assert note(y_up, "-y").endswith("not -y: the body was reconstructed upside down; pass --up-axis y")
     assert note(take, "x").endswith("not x: the body was reconstructed lying on its side; pass --up-axis z")
+
+
+def test_control_markers_warns_from_python_where_the_file_stands_along_another_axis():
+    """Trial T1: a Y-up TRC through control_markers and markers.reconstruct in Python came back lying on its side
+    with no word; the command printed up_axis_note. control_markers now says it as a UserWarning (the command takes
+    it from there), naming Python's argument."""
+    import dataclasses
+    import warnings
+    from pathlib import Path
+
+    take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "85_02.c3d")[:120]
+    sk = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc")).skeleton
+    use = "LFHD=head,LWRA=lhand,RWRA=rhand,LANK=lfoot,RANK=rfoot,LFWT=root"
+    y_up = dataclasses.replace(take, positions=take.positions[..., [1, 2, 0]])
+    with pytest.warns(UserWarning, match=r"^the markers stand along the file's y axis, not z \(the default, the C3D "
+                                         r"convention\): the body was reconstructed lying on its side; pass "
+                                         r"up_axis='y'$"):
+        control_markers(y_up, use, sk)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        control_markers(y_up, use, sk, up_axis="y")
+        control_markers(take, use, sk)

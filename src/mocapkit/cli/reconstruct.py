@@ -234,17 +234,16 @@ def reconstruct(
         if use is None and isinstance(source, MarkerSet):
             raise MocapFormatError(inp, "a marker file needs --use LABEL=JOINT,... to say which joint each marker sits on")
         spec = use if use is not None else _default_use(source.skeleton)
+        said: list[str] = []  # a file whose vertical is not the one it was read with (control.up_axis_note)
         try:
-            pos, joints, fps = control_markers(source, spec, db.skeletons[0], up_axis=up_axis)
+            with warnings_as_notes(said):
+                pos, joints, fps = control_markers(source, spec, db.skeletons[0], up_axis=up_axis, option="--up-axis")
         except ValueError as exc:
             raise MocapError(f"{inp}: {exc}") from None
+        lying = "; ".join(said)
         pos, joints, unseen = _drop_unseen(pos, joints, spec)
         if not joints:
             raise MocapFormatError(inp, f"no marker named in --use is seen in any frame ({', '.join(unseen)})")
-        if isinstance(source, MarkerSet):  # a file whose vertical is not the one it was read with
-            from ..reconstruct.control import up_axis_note
-
-            lying = up_axis_note(pos, joints, db.skeletons[0], up_axis)
         what = f"{plural(len(joints), 'marker')} ({', '.join(joints)})"
         frames = pos.shape[0]
     ref = None

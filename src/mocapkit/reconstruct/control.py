@@ -88,6 +88,8 @@ def control_markers(
     use: str | Sequence[str],
     skeleton: Skeleton,
     up_axis=None,
+    *,
+    option: str = "up_axis",
 ) -> tuple[np.ndarray, list[str], float]:
     """Marker trajectories of ``source`` for the joints named in ``use``, in ``skeleton``'s units and frame.
 
@@ -105,7 +107,14 @@ def control_markers(
         axis (:func:`detect_up_axis`) are the output's.
     up_axis : optional
         The marker file's vertical axis; ``"z"`` (the C3D convention) when
-        None. Ignored for motions, whose own up axis is detected.
+        None. Ignored for motions, whose own up axis is detected. Where a marker
+        file's markers stand along another axis (:func:`up_axis_note`: an
+        OpenSim TRC is Y-up, and read as Z-up its body is reconstructed lying on
+        its side), a ``UserWarning`` says so and which axis to pass, in the
+        words ``mocapkit reconstruct`` prints as a note.
+    option : str
+        How the note names the argument to pass: ``"up_axis"`` (Python:
+        ``pass up_axis='y'``) or ``"--up-axis"`` (the command line).
 
     Returns
     -------
@@ -148,14 +157,23 @@ def control_markers(
         raise ValueError(f"no marker(s) {', '.join(missing)} in the file; it has {shown}")
     pos = source.positions[:, [found[a] for a, _ in pairs]] * (source.unit_cm * to_unit)
     P = up_rotation("z" if up_axis is None else up_axis, target_up)
-    return pos @ P.T, joints, float(source.fps)
+    pos = pos @ P.T
+    note = up_axis_note(pos, joints, skeleton, up_axis, option=option)
+    if note:
+        import warnings
+
+        warnings.warn(note, UserWarning, stacklevel=2)
+    return pos, joints, float(source.fps)
 
 
-def up_axis_note(pos: np.ndarray, joints: Sequence[str], skeleton: Skeleton, up_axis=None) -> str:
+def up_axis_note(pos: np.ndarray, joints: Sequence[str], skeleton: Skeleton, up_axis=None,
+                 option: str = "--up-axis") -> str:
     """A note where a marker file's trajectories do not stand along the vertical axis they were read with; "".
 
     ``pos`` (F, M, 3): :func:`control_markers`' output for a marker file read with ``up_axis`` (None: ``"z"``,
-    the C3D convention), in ``skeleton``'s frame and units; ``joints`` (M): the joints or end sites they sit on.
+    the C3D convention), in ``skeleton``'s frame and units; ``joints`` (M): the joints or end sites they sit on;
+    ``option``: the argument the note says to pass (``"--up-axis"``: ``pass --up-axis y``; ``"up_axis"``: ``pass
+    up_axis='y'``). :func:`control_markers` warns with it, which is how the command gets it too.
     In each frame with 3 or more markers seen off the arms (which reach above the head), their coordinates along
     each axis are regressed on their joints' heights in ``skeleton``'s rest pose (head above hips above feet):
     along the vertical the slope is near 1 (0.76-1.12 on CMU 85_02, 85_12, 135_02, HDM05 bd_05-01, and the
@@ -211,8 +229,9 @@ def up_axis_note(pos: np.ndarray, joints: Sequence[str], skeleton: Skeleton, up_
     axis = ("-" if v[a] < 0 else "") + "xyz"[a]
     default = " (the default, the C3D convention)" if up_axis is None else ""
     how = "upside down" if k == k_up else "lying on its side"
+    fix = f"{option} {axis}" if option.startswith("-") else f"{option}={axis!r}"
     return (f"the markers stand along the file's {axis} axis, not {given}{default}: the body was reconstructed "
-            f"{how}; pass --up-axis {axis}")
+            f"{how}; pass {fix}")
 
 
 def marker_residuals(motion: Motion, markers: np.ndarray, joints: Sequence[str]) -> np.ndarray:
