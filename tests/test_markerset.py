@@ -4,6 +4,7 @@ import pytest
 import mocapkit
 from mocapkit.io import MarkerSet as IoMarkerSet
 from mocapkit.io.c3d import MarkerSet as C3dMarkerSet
+from mocapkit.io import load_markers
 from mocapkit.markerset import MarkerSet, MarkerSource, length_unit_cm, zero_gap_mask
 
 
@@ -339,3 +340,33 @@ def test_functionalwalks_camera_seen_samples_of_residual_0_are_recorded_ones(sha
     zero = ~ms.missing() & (ms.residuals == 0) & ~ms.modelled() & ~ms.unlabelled()
     assert zero.sum() == 11215 and np.sum(zero & (ms.cameras > 0)) == 11203
     assert ms.interpolated().sum() == 12  # was 11,215: every sample under 0.09 mm of residual
+
+
+def test_repr_counts_markers_as_info_does(shared_data):
+    """Trial T1: the repr said "193 markers, 10.5% missing" where `mocapkit info` says 113 markers (+80 modelled
+    quantities) and 0.00 %: every missing sample was a force's or moment's. Counted by the one helper."""
+    from mocapkit.markerset import marker_counts
+
+    take = load_markers(shared_data / "c3d_markers" / "PiG_Motion-FlatFoot-Hole.c3d")
+    assert marker_counts(take) == (113, 80, 0.0)
+    assert repr(take) == ("MarkerSet('PiG_Motion-FlatFoot-Hole', 320 frames @ 100 fps, 113 markers "
+                          "(+80 modelled quantities), 0.0% missing)")
+    assert repr(take[:1]).startswith("MarkerSet('PiG_Motion-FlatFoot-Hole', 1 frame @ 100 fps, 113 markers")
+
+
+def test_a_part_counts_its_own_zero_gaps(tmp_path):
+    """Trial T1: 03_rolling.c3d[:700].zero_gaps was the whole file's 35,965 (the part has 6,909). A C3D part counts
+    those in its frames (source.stored_zeros); a TRC keeps no place for them, and its part counts 0."""
+    from pathlib import Path
+
+    from mocapkit.io import save_markers
+
+    take = load_markers(Path(__file__).resolve().parent / "data" / "85_02.c3d")[:300]
+    x, res = np.array(take.positions), np.array(take.residuals)
+    x[100:140, 7], res[100:140, 7] = 0.0, 2.0  # an occlusion stored as (0, 0, 0), as exporters store one
+    back = load_markers(save_markers(take.with_positions(x, residuals=res), tmp_path / "zeros.c3d"))
+    assert back.zero_gaps == 40 and back[:].zero_gaps == 40
+    assert back[:120].zero_gaps == 20 and back[130:].zero_gaps == 10 and back[200:].zero_gaps == 0
+    assert back[100:140:2].zero_gaps == 20 and back[110].zero_gaps == 1
+    trc = load_markers(save_markers(take.with_positions(x, residuals=res), tmp_path / "zeros.trc"))
+    assert trc.zero_gaps == 40 and trc[:].zero_gaps == 40 and trc[:120].zero_gaps == 0

@@ -23,8 +23,9 @@ from typing import Any, Mapping
 import numpy as np
 
 from .motion import check_fps, frame_slice, frozen
+from .words import plural
 
-__all__ = ["MarkerSet", "MarkerSource", "length_unit_cm", "unit_symbol", "zero_gap_mask", "unique_labels", "repeated_labels_note",
+__all__ = ["MarkerSet", "MarkerSource", "marker_counts", "length_unit_cm", "unit_symbol", "zero_gap_mask", "unique_labels", "repeated_labels_note",
            "subject_of",
            "infer_units", "marker_units", "check_units", "UNIT_MISMATCH_FACTOR", "ZERO_GAP_DISTANCE_CM", "BODY_SPAN_M",
            "MODELLED_GROUPS"]
@@ -395,7 +396,8 @@ class MarkerSet:
         File metadata a writer keeps (C3D parameters and analogs, TRC header).
     zero_gaps : int
         How many samples the reader found stored as exact (0, 0, 0) gaps and
-        read as missing (see :func:`zero_gap_mask`); 0 when none or when asked to keep them.
+        read as missing (see :func:`zero_gap_mask`); 0 when none or when asked to keep them. A part of
+        the take counts its own (:meth:`__getitem__`).
     cameras : int array (F, M) or None
         C3D camera masks: bit k (0-6) set where camera k saw the sample, as
         the file stores them; None when the file has none (TRC, npz).
@@ -697,9 +699,17 @@ class MarkerSet:
 
     def __getitem__(self, key) -> "MarkerSet":
         """Frames by slice (a step ``k`` divides fps by ``k``; analogs are kept only without a step) or by a
-        single index (one frame), as a Motion is sliced (:func:`mocapkit.motion.frame_slice`)."""
+        single index (one frame), as a Motion is sliced (:func:`mocapkit.motion.frame_slice`).
+
+        ``zero_gaps`` counts those of the part's frames where the reader kept where they were (a C3D's
+        :attr:`MarkerSource.stored_zeros`); a part of a take that does not keep them (a TRC) counts 0, as it cannot
+        be known which of its missing samples they are (the whole take keeps its count)."""
         key, fps = frame_slice(key, self.num_frames, self.fps, "markers")
         start, stop, step = key.indices(self.num_frames)
+        zero_gaps = self.zero_gaps
+        if (start, max(start, stop), step) != (0, self.num_frames, 1):
+            stored = None if self.source is None else self.source.stored_zeros
+            zero_gaps = 0 if stored is None else int((~np.isnan(stored[key])).any(axis=-1).sum())
         res = None if self.residuals is None else self.residuals[key]
         cams = None if self.cameras is None else self.cameras[key]
         source = self.source
@@ -729,11 +739,28 @@ class MarkerSet:
                                          text=source.text if whole else None, stored_zeros=zeros, filled=filled,
                                          missing_stored=rows)
         return dataclasses.replace(self, positions=self.positions[key], fps=fps, residuals=res, source=source,
-                                   cameras=cams)
+                                   cameras=cams, zero_gaps=zero_gaps)
 
     def __repr__(self) -> str:
-        miss = 100.0 * self.missing().mean() if self.positions.size else 0.0
-        return f"MarkerSet({self.name!r}, {self.num_frames} frames @ {self.fps:g} fps, {self.num_markers} markers, {miss:.1f}% missing)"
+        """Frames, rate, markers and their missing share counted as ``mocapkit info`` counts them
+        (:func:`marker_counts`: a C3D's modelled quantities apart, their empty samples no marker's)."""
+        markers, quantities, missing = marker_counts(self)
+        also = f" (+{plural(quantities, 'modelled quantity', 'modelled quantities')})" if quantities else ""
+        return (f"MarkerSet({self.name!r}, {plural(self.num_frames, 'frame')} @ {self.fps:g} fps, "
+                f"{plural(markers, 'marker')}{also}, {100.0 * missing:.1f}% missing)")
+
+
+def marker_counts(markers: MarkerSet) -> tuple[int, int, float]:
+    """``(markers, modelled, missing)``: how many of ``markers``' points are markers (positions, measured or
+    modelled) and how many are modelled quantities (a C3D's angles, forces, moments, powers:
+    :meth:`MarkerSet.quantities`), and the share (0..1) of the markers' samples that are missing. A quantity's
+    gaps are not marker samples missing, so they are not counted: the share is the one a .trc written from the
+    file (which holds markers only) shows. 0.0 for a take of no marker. ``mocapkit info``, ``clean`` and
+    :meth:`MarkerSet.__repr__` count by it."""
+    quantity = markers.quantities() != ""
+    kept = ~quantity
+    missing = float(markers.missing()[:, kept].mean()) if kept.any() and markers.num_frames else 0.0
+    return int(kept.sum()), int(quantity.sum()), missing
 
 
 def zero_gap_mask(positions, unit_cm: float, skip=()) -> np.ndarray:

@@ -18,7 +18,7 @@ from collections import Counter
 import numpy as np
 
 
-from ..markerset import MarkerSet
+from ..markerset import MarkerSet, marker_counts
 from ..words import plural
 from .c3d_layout import parameter_values
 
@@ -41,19 +41,6 @@ def _first_int(values) -> int:
 def _counted(names) -> str:
     """``["Foot Strike", "Foot Off", "Foot Strike"]`` -> "2 Foot Strike, 1 Foot Off" (in order of first use)."""
     return ", ".join(f"{n} {name}" for name, n in Counter(names).items())
-
-
-def marker_counts(markers: MarkerSet) -> tuple[int, int, float]:
-    """``(markers, modelled, missing)``: how many of ``markers``' points are markers (positions, measured or
-    modelled) and how many are modelled quantities (a C3D's angles, forces, moments, powers:
-    :meth:`~mocapkit.markerset.MarkerSet.quantities`), and the share (0..1) of the markers' samples that
-    are missing. A quantity's gaps are not marker samples missing, so they are not counted: the share is
-    the one a .trc written from the file (which holds markers only) shows. 0.0 for a take of no marker.
-    """
-    quantity = markers.quantities() != ""
-    kept = ~quantity
-    missing = float(markers.missing()[:, kept].mean()) if kept.any() and markers.num_frames else 0.0
-    return int(kept.sum()), int(quantity.sum()), missing
 
 
 def never_seen_line(markers: MarkerSet) -> str:
