@@ -125,3 +125,19 @@ def test_save_markers_refuses_an_existing_file_and_its_like(tmp_path):
     save_markers(ms, out, overwrite=True)
     with pytest.raises(MocapFormatError, match="already exists"):
         save_markers(ms, out)
+
+
+@pytest.mark.parametrize("name,kwargs,wrong", [("131_01.bvh", {"fps": 30}, "fps="),
+                                               ("Eb015pr.c3d", {"fps": 30, "asf": "x.asf"}, "fps=, asf="),
+                                               ("12_walk.amc", {"units": "mm"}, "units=")])
+def test_a_keyword_the_formats_reader_does_not_take_is_refused_in_one_line(name, kwargs, wrong):
+    """Trial T1: load(bvh, fps=30) raised "TypeError: read_bvh() got an unexpected keyword argument 'fps'", which
+    `except MocapError` misses; now one line naming the file and which keyword fits which format."""
+    from mocapkit import samples
+
+    path = samples.path(name)
+    suffix = name.rsplit(".", 1)[1]
+    with pytest.raises(MocapFormatError) as exc:
+        load(path, **kwargs)
+    assert str(exc.value) == (f"{path}: load takes no {wrong} for .{suffix} files; the keywords by format: .amc: asf=, "
+                              "fps=, dofs=; .bvh, .npz: none; .c3d, .trc: zeros_as_gaps=, units=")

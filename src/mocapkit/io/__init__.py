@@ -52,13 +52,31 @@ def _not_a_folder(path: Path, table: dict) -> None:
 def load(path, **kwargs):
     """Read a motion file, choosing the format by suffix (.bvh, .amc, .npz; .c3d and .trc give a MarkerSet).
 
-    Keyword arguments go to the format's reader (e.g. ``asf=`` and ``fps=`` for AMC).
+    Keyword arguments go to the format's reader (e.g. ``asf=`` and ``fps=`` for AMC; ``zeros_as_gaps=`` and
+    ``units=`` for .c3d and .trc; none for .bvh and .npz); one the file's reader does not take is refused in one
+    :class:`~mocapkit.errors.MocapFormatError` naming the file and which keywords fit which format
+    (the readers' own parameters).
     """
     path = Path(path)
     _not_a_folder(path, READERS)
     kind = suffix_kind(path, READERS, "reading")
     if not path.is_file():
         raise (MocapFormatError(path, "not a regular file") if path.exists() else MissingFileError(path))
+    reader = _reader(kind)
+    wrong = [k for k in kwargs if k not in _reader_keywords(kind)]
+    if wrong:
+        fits = {}  # the keywords -> the suffixes whose reader takes them
+        for suffix, other in READERS.items():
+            fits.setdefault(_reader_keywords(other), []).append(suffix)
+        said = "; ".join(f"{', '.join(sorted(sufs))}: {', '.join(k + '=' for k in kws) or 'none'}"
+                         for kws, sufs in sorted(fits.items(), key=lambda kv: sorted(kv[1])))
+        raise MocapFormatError(path, f"load takes no {', '.join(k + '=' for k in wrong)} for {path.suffix.lower()} "
+                                     f"files; the keywords by format: {said}")
+    return reader(path, **kwargs)
+
+
+def _reader(kind: str):
+    """The read function of a :data:`READERS` kind."""
     if kind == "bvh":
         from .bvh import read_bvh as reader
     elif kind == "asfamc":
@@ -69,7 +87,15 @@ def load(path, **kwargs):
         from .trc import read_trc as reader
     else:
         from .c3d import read_c3d as reader
-    return reader(path, **kwargs)
+    return reader
+
+
+def _reader_keywords(kind: str) -> tuple[str, ...]:
+    """The keyword arguments :func:`load` passes on to the reader of a :data:`READERS` kind (``"asfamc"``:
+    ``("asf", "fps", "dofs")``), read from its signature: every parameter after the path."""
+    import inspect
+
+    return tuple(inspect.signature(_reader(kind)).parameters)[1:]
 
 
 def load_markers(path, **kwargs) -> MarkerSet:
