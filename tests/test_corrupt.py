@@ -583,3 +583,25 @@ def test_noise_near_gimbal_lock_is_the_size_of_the_joints_turn():
         g = np.degrees(R.geodesic_angle(bad.rotations[:, 1], m.rotations[:, 1]))
         # each channel's noise turns the joint by its own size, each at most amount x the joint's spread
         assert np.sqrt(np.mean(g**2)) <= 1.1 * np.sqrt(3.0) * amount * turn
+
+
+def test_gaps_on_a_marker_capture_and_the_others_refuse_it_in_one_line():
+    """Trial T1: corrupt.gaps(load_markers(...)) raised AttributeError 'num_joints'. Gaps in markers are what the
+    marker cleaning fills: the same runs per marker (NaN, residual -1), every other sample bit-identical. The
+    corruptions of joint rotations refuse a marker capture in one line."""
+    from pathlib import Path
+
+    from mocapkit.errors import MocapError
+    from mocapkit.io import load_markers
+
+    take = load_markers(Path(__file__).resolve().parent / "data" / "85_02.c3d")[:300]
+    out, mask = C.gaps(take, seed=1, start_prob=0.01)
+    assert mask.shape == (300, take.num_markers) and 0 < mask.sum() < mask.size // 4
+    assert np.array_equal(out.missing(), take.missing() | mask) and np.all(out.residuals[mask] == -1)
+    assert np.array_equal(out.positions[~mask], take.positions[~mask], equal_nan=True)
+    one, only = C.gaps(take, seed=1, start_prob=0.01, joints="Male:LFWT")
+    assert only[:, 0].any() and not only[:, 1:].any()
+    for kind in ("noise", "spike", "spatial"):
+        with pytest.raises(MocapError, match=r"^85_02: corrupt\.\w+ works on skeletal takes \(joint rotations\), not "
+                                             r"marker captures; corrupt\.gaps makes gaps in markers$"):
+            C.corrupt(take, kind, seed=1)

@@ -41,9 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import rotations as R
-from .errors import SkeletonError
+from .errors import MocapError, SkeletonError
 from .joint_spread import joint_rotation_spread, noise_spread
 from .mirroring import mirror_for_rig
+from .markerset import MarkerSet
 from .motion import Motion, bone_moving_joints, find_joint, mirror_pairs, unit_scale_cm
 
 __all__ = [
@@ -71,6 +72,14 @@ ERROR_KINDS = ("spike", "flip", "freeze", "drift", "swap")
 
 def _rng(seed) -> np.random.Generator:
     return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+
+
+def skeletal(motion, what: str) -> None:
+    """Refuse a :class:`~mocapkit.markerset.MarkerSet` given to ``what`` (a corruption of joint rotations) in one
+    line: a marker capture has no joints to turn; :func:`gaps` is the corruption that takes one."""
+    if isinstance(motion, MarkerSet):
+        raise MocapError(f"{motion.name or 'markers'}: corrupt.{what} works on skeletal takes (joint rotations), not "
+                         "marker captures; corrupt.gaps makes gaps in markers")
 
 
 def joint_set(motion: Motion, joints, include_root: bool) -> np.ndarray:
@@ -230,6 +239,7 @@ def angular_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
 
     Returns ``(motion, mask)``.
     """
+    skeletal(motion, "angular_noise")
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root)
     cols, owner = _rotation_columns(motion, sel)
@@ -244,6 +254,7 @@ def uniform_noise(motion: Motion, amount: float = 0.5, seed=None, joints=None, i
     Each sample is uniform on ``[-w, w]`` with ``w = sqrt(3) * amount * std``
     (Mall 4.1, "uniform noise"). Returns ``(motion, mask)``.
     """
+    skeletal(motion, "uniform_noise")
     rng = _rng(seed)
     sel = joint_set(motion, joints, include_root)
     cols, owner = _rotation_columns(motion, sel)
@@ -270,6 +281,7 @@ def bias(
     ``noise`` x channel std on top (Mall test "0.5 noise plus a bias" with
     ``noise=0.5``). Returns ``(motion, mask)``.
     """
+    skeletal(motion, "bias")
     if kind not in ("constant", "sinusoidal"):
         raise ValueError(f"bias kind must be 'constant' or 'sinusoidal', got {kind!r}")
     if not period_s > 0:
@@ -332,6 +344,7 @@ def spatial_noise(
 
     Returns ``(motion, mask)``.
     """
+    skeletal(motion, "spatial_noise")
     if amount is not None:
         std_cm = amount
     if std_cm < 0 or end_effector_scale < 0:
@@ -463,6 +476,11 @@ def gaps(
     there would be a change to a bone nothing can move. The mask is the cells
     that became missing (cells already NaN in the input are not "changed").
 
+    A :class:`~mocapkit.markerset.MarkerSet` gets the same runs per marker (positions NaN, residual -1: what
+    ``clean`` fills): every marker but the modelled points and the unlabelled trajectories
+    (:meth:`~mocapkit.markerset.MarkerSet.modelled`, ``unlabelled``: cleaning leaves them alone) unless
+    ``joints`` names markers by label or index; the mask is (F, M).
+
     Returns ``(motion, mask)``.
     """
     fps = motion.fps
@@ -473,31 +491,64 @@ def gaps(
     if not long and not (mean_length_s > 0 and max_length_s > 0):
         raise ValueError("mean_length_s and max_length_s must be positive")
     rng = _rng(seed)
+    runs = _gap_runs(rng, motion.num_frames, fps, start_prob, mean_length_s, max_length_s, long)
+    if isinstance(motion, MarkerSet):
+        return _marker_gaps(motion, joints, runs)
     sel = joint_set(motion, joints, include_root=False)
     # only joints the file animates lose samples; the others still draw theirs, so a seed gaps the rest alike
     keep = sel & (joints is not None or np.array([bool(motion.skeleton.rotation_order(j))
                                                    for j in range(motion.num_joints)]))
-    F = motion.num_frames
     rot = np.array(motion.rotations)
     root = np.array(motion.root_positions)
+    for j in np.flatnonzero(sel):
+        for f, n in runs():
+            if keep[j]:
+                rot[f : f + n, j] = np.nan
+            if j == 0:
+                root[f : f + n] = np.nan
+    out = dataclasses.replace(motion, rotations=rot, root_positions=root)
+    return out, _changed(motion, rot, root)
+
+
+def _gap_runs(rng, F: int, fps: float, start_prob: float, mean_length_s: float, max_length_s: float, long: bool):
+    """A function giving, on each call, one column's gaps of :func:`gaps` as ``(first frame, length)`` pairs,
+    drawn from ``rng`` (none when ``start_prob`` is 0)."""
     mean_frames = max(mean_length_s * fps, 1.0)
     max_frames = max(int(round(max_length_s * fps)), 1)
     long_lo, long_hi = max(int(round(1.0 * fps)), 1), max(int(round(5.0 * fps)), 1)
-    if start_prob > 0.0:
-        for j in np.flatnonzero(sel):
-            f = int(rng.geometric(start_prob)) - 1  # observed frames before the first gap
-            while f < F:
-                if long:
-                    n = int(rng.integers(long_lo, long_hi + 1))
-                else:
-                    n = min(int(rng.geometric(1.0 / mean_frames)), max_frames)
-                if keep[j]:
-                    rot[f : f + n, j] = np.nan
-                if j == 0:
-                    root[f : f + n] = np.nan
-                f += n + int(rng.geometric(start_prob))  # >= 1 observed frame in between
-    out = dataclasses.replace(motion, rotations=rot, root_positions=root)
-    return out, _changed(motion, rot, root)
+
+    def runs():
+        if start_prob <= 0.0:
+            return
+        f = int(rng.geometric(start_prob)) - 1  # observed frames before the first gap
+        while f < F:
+            if long:
+                n = int(rng.integers(long_lo, long_hi + 1))
+            else:
+                n = min(int(rng.geometric(1.0 / mean_frames)), max_frames)
+            yield f, n
+            f += n + int(rng.geometric(start_prob))  # >= 1 observed frame in between
+
+    return runs
+
+
+def _marker_gaps(markers: MarkerSet, labels, runs) -> tuple[MarkerSet, np.ndarray]:
+    """:func:`gaps` of a marker capture: ``runs`` (:func:`_gap_runs`) for each marker chosen (``labels``: names or
+    indexes; None: the markers cleaning fills), its positions NaN there. Returns ``(markers, (F, M) mask)``."""
+    if labels is None:
+        sel = ~(markers.modelled() | markers.unlabelled())
+    else:
+        sel = np.zeros(markers.num_markers, dtype=bool)
+        for k in [labels] if isinstance(labels, (str, int, np.integer)) else labels:
+            if isinstance(k, str) and k not in markers.labels:
+                raise MocapError(f"{markers.name or 'markers'}: no marker {k!r}")
+            sel[markers.labels.index(k) if isinstance(k, str) else int(k)] = True
+    pos = np.array(markers.positions)
+    for m in np.flatnonzero(sel):
+        for f, n in runs():
+            pos[f : f + n, m] = np.nan
+    out = markers.with_positions(pos)
+    return out, out.missing() & ~markers.missing()
 
 
 # -- real errors (Aristidou et al. 2018, section 6) ---------------------------------
@@ -602,6 +653,7 @@ def real_errors(
     (all of each record's window except, for a freeze, frames where the joint
     happens to sit at the held value).
     """
+    skeletal(motion, "real_errors")
     kinds = tuple(kinds)
     bad = [k for k in kinds if k not in ERROR_KINDS]
     if bad or not kinds:
@@ -740,6 +792,7 @@ def smooth_drifts(
     ``(motion, mask, records)`` as :func:`real_errors` does, with kind
     ``"smooth_drift"``; ``mask`` is True on the cells whose rotation changed.
     """
+    skeletal(motion, "smooth_drifts")
     if not (np.isfinite(peak_deg) and 0 < peak_deg < 180):
         raise ValueError(f"peak_deg must be in (0, 180) degrees, got {peak_deg!r}")
     rng, sk, F, J, sel, has_dofs = _error_setup(motion, joints, duration_s, seed)
