@@ -529,3 +529,10 @@ def test_forward_kinematics_passes_the_kernel_one_argument_type():
         assert np.allclose(gpos[:, 0], m.root_positions)
     inputs = {sig[1:3] for sig in fk_kernel.signatures}
     assert {(a.mutable, b.mutable) for a, b in inputs} == {(False, False)}, fk_kernel.signatures
+
+
+def test_repr_counts_in_exact_plurals():
+    """Trial T1: a one-frame slice printed "1 frames" (the house words: words.plural)."""
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    assert repr(take[5]) == "Motion('131_01', 1 frame @ 120 fps, 31 joints, 0.01 s)"
+    assert repr(take[:2]).startswith("Motion('131_01', 2 frames @ 120 fps, 31 joints")

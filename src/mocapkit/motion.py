@@ -24,6 +24,7 @@ import numpy as np
 
 from . import rotations as R
 from .errors import MocapError, SkeletonError
+from .words import plural
 from .joints import (  # the joint-naming names, re-exported: mocapkit.motion is where they were always found
     MIRROR_MISMATCH_MAX,
     ROLES,
@@ -394,7 +395,8 @@ class Skeleton:
     __hash__ = None  # mutable-looking arrays inside: not hashable
 
     def __repr__(self) -> str:
-        return f"Skeleton({self.num_joints} joints, {self.num_end_sites} end sites, root={self.joint_names[0]!r})"
+        return (f"Skeleton({plural(self.num_joints, 'joint')}, {plural(self.num_end_sites, 'end site')}, "
+                f"root={self.joint_names[0]!r})")
 
 
 @dataclass(frozen=True, eq=False)
@@ -490,8 +492,8 @@ class Motion:
 
     def __repr__(self) -> str:
         return (
-            f"Motion({self.name!r}, {self.num_frames} frames @ {self.fps:g} fps, "
-            f"{self.num_joints} joints, {self.duration:.2f} s)"
+            f"Motion({self.name!r}, {plural(self.num_frames, 'frame')} @ {self.fps:g} fps, "
+            f"{plural(self.num_joints, 'joint')}, {self.duration:.2f} s)"
         )
 
     # -- slicing -----------------------------------------------------------
