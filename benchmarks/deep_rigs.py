@@ -7,7 +7,8 @@ Usage::
 CMU 01_01 is the one take of ``../shared/data`` in both spellings (``cmu_asfamc/01_01.amc`` and
 ``cmu_bvh/01_01.bvh``, whose frame 0 is the converter's T-pose). It is one of the shipped models'
 training takes: this compares the spellings (``cleaning.deep.served_by`` and its joint map), not
-how the networks generalise (``deep_denoise`` and ``deep_gapfill`` do that on held-out clips).
+how the networks generalise (``deep_denoise`` and ``deep_gapfill`` do that on held-out clips). Every denoise is
+the network's own output (``deep.denoise(..., guard=False)``), as in ``deep_denoise``.
 
 * ``channels_max_diff_deg``: the largest difference between the channels the network reads from the
   BVH (through the joint map) and from the AMC;
@@ -135,7 +136,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         for seed in range(seeds):
             noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed, joints=joints)
             add(f"{name}_input", rms(take, noisy, cells))
-            add(name, rms(take, deep.denoise(noisy, model), cells))
+            add(name, rms(take, deep.denoise(noisy, model, guard=False), cells))
             add(f"{name}_fallback", rms(take, savgol_smooth(noisy, window_s=0.1, polyorder=2, root=False), cells))
 
     three = [mocapkit.load(p) for p in sorted((DATA / "cmu_bvh").glob("131_0*.bvh"))]
@@ -151,7 +152,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
     versus_fallback("retarget_mixamo", mix, joints=names)
     for seed in range(seeds):
         noisy, _ = corrupt.angular_noise(mix, 0.5, seed=seed, joints=names)
-        add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
+        add("retarget_mixamo_mb", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton), guard=False)))
     smpl = smpl_spelling(bvh)
     versus_fallback("retarget_smpl", smpl)
     daz = daz_spelling(bvh)
@@ -168,7 +169,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
     versus_fallback("retarget_unnamed", odd)
     for seed in range(seeds):
         noisy, _ = corrupt.angular_noise(odd, 0.5, seed=seed)
-        add("retarget_unnamed_named", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton))))
+        add("retarget_unnamed_named", rms(bvh, deep.denoise(dataclasses.replace(noisy, skeleton=bvh.skeleton), guard=False)))
     versus_fallback("retarget_pybvh", mocapkit.load(REPO / "tests" / "data" / "pybvh_test1_zup.bvh"))
     versus_fallback("retarget_biovision", mocapkit.load(DATA / "peer_files" / "20tab+bvh-python" / "tests" /
                                                         "test_mocapbank.bvh"))
@@ -182,7 +183,7 @@ def retargeted(ebf, seeds: int) -> tuple[dict, dict, dict]:
         versus_fallback("retarget_bandai", take, model=ebf)
         for seed in range(seeds):
             noisy, _ = corrupt.angular_noise(take, 0.5, seed=seed)
-            add("retarget_bandai_own", rms(take, deep.denoise(noisy)))
+            add("retarget_bandai_own", rms(take, deep.denoise(noisy, guard=False)))
         versus_fallback("retarget_unreal", unreal_spelling(take))
     mean = {k: float(np.mean(v)) for k, v in rows.items()}
     names = ["retarget_3dsmax_body", "retarget_3dsmax_thumbs", "retarget_mixamo", "retarget_smpl", "retarget_daz",
@@ -241,11 +242,11 @@ def main() -> None:
     for seed in range(args.seeds):
         noisy, _ = corrupt.angular_noise(asf, 0.5, seed=seed)
         rows["noisy"].append(rms(asf, noisy))
-        rows["asf"].append(rms(asf, deep.denoise(noisy)))
-        rows["bvh"].append(rms(bvh, deep.denoise(spelled(bvh, noisy))))
+        rows["asf"].append(rms(asf, deep.denoise(noisy, guard=False)))
+        rows["bvh"].append(rms(bvh, deep.denoise(spelled(bvh, noisy), guard=False)))
         own, _ = corrupt.angular_noise(bvh, 0.5, seed=seed)
         rows["own_noisy"].append(rms(bvh, own))
-        rows["own_bvh"].append(rms(bvh, deep.denoise(own)))
+        rows["own_bvh"].append(rms(bvh, deep.denoise(own, guard=False)))
         rows["own_savgol"].append(rms(bvh, savgol_smooth(own, window_s=0.1, polyorder=2, root=False)))
         gapped, _ = corrupt.gaps(asf, seed=seed)
         miss = gapped.missing()
