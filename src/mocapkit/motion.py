@@ -54,6 +54,7 @@ __all__ = [
     "check_fps",
     "frame_slice",
     "frozen",
+    "source_part",
     "with_channels_of",
     "readonly_view",
     "FPS_RANGE",
@@ -424,6 +425,13 @@ class Motion:
         returns a new Motion, None for a take made in Python). :func:`mocapkit.io.save` writes a BVH or AMC
         like it (its text kept wherever the take did not change, as the command line does). Not compared,
         not written to .npz.
+    source_frames : range, optional
+        Which of that file's frames the take's frames are (0-based, in the file's order), where that is known:
+        slicing sets it (``take[100:200]`` of a file's take holds ``range(100, 200)``, and a slice of it is
+        sliced from those), so that :func:`mocapkit.io.save` writes a contiguous part of the file's frames
+        with the file's own lines (:func:`source_part`). None: the file's frames as read (the whole file when
+        the take has as many frames). An empty range on a take with frames: none of the file's frames in
+        order (a resampled or concatenated take): the file is written whole. Not compared, not written to .npz.
 
     Examples
     --------
@@ -442,6 +450,7 @@ class Motion:
     name: str = ""
     translations: np.ndarray | None = None
     source_file: str | None = None
+    source_frames: range | None = None
 
     def __post_init__(self):
         if not isinstance(self.skeleton, Skeleton):
@@ -472,6 +481,8 @@ class Motion:
             object.__setattr__(self, "translations", frozen(tr))
         if self.source_file is not None:
             object.__setattr__(self, "source_file", _source_path(self.source_file, "source_file"))
+        if self.source_frames is not None and not isinstance(self.source_frames, range):
+            raise TypeError(f"source_frames must be a range or None, got {type(self.source_frames).__name__}")
 
     # -- sizes -------------------------------------------------------------
     @property
@@ -501,8 +512,13 @@ class Motion:
         """Frames by slice (a step ``k`` divides fps by ``k``) or by a single index (one frame)."""
         key, fps = frame_slice(key, self.num_frames, self.fps, "motion")
         tr = None if self.translations is None else self.translations[key]
+        frames = self.source_frames
+        if self.source_file is not None:  # the file's frames the part holds: those of the take's, sliced
+            held = range(self.num_frames) if frames is None else frames
+            frames = held[key] if len(held) == self.num_frames else range(0)
         return dataclasses.replace(
-            self, rotations=self.rotations[key], root_positions=self.root_positions[key], fps=fps, translations=tr
+            self, rotations=self.rotations[key], root_positions=self.root_positions[key], fps=fps, translations=tr,
+            source_frames=frames,
         )
 
     # -- forward kinematics -------------------------------------------------
@@ -734,7 +750,9 @@ class Motion:
             root[k] = _lerp(self.root_positions, i0, i1, a, exact)
             if tr is not None:
                 tr[k] = _lerp(self.translations, i0, i1, a, exact)
-        return dataclasses.replace(self, rotations=rot, root_positions=root, fps=fps, translations=tr)
+        # new frames, none of them the file's in order: a writer writes the file whole (source_part)
+        return dataclasses.replace(self, rotations=rot, root_positions=root, fps=fps, translations=tr,
+                                   source_frames=None if self.source_file is None else range(0))
 
     # -- mirroring -----------------------------------------------------------
     def mirror(self, axis: int | None = None) -> "Motion":
@@ -818,7 +836,11 @@ def with_channels_of(motion: Motion, skeleton: Skeleton) -> Motion:
 def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
     """Frames of several clips one after another; skeletons must be the same (joints, hierarchy, bone offsets
     and ASF axes: the result has one skeleton, and another actor's bones would move every joint of their
-    frames) and frame rates agree."""
+    frames) and frame rates agree.
+
+    The result keeps the first clip's ``source_file``; its ``source_frames`` say it holds none of that file's
+    frames in order (an empty range), so :func:`mocapkit.io.save` writes the file whole, unless the clips are
+    consecutive slices of that one file (``m[:100]`` and ``m[100:200]``: the file's frames 0-199)."""
     motions = list(motions)
     if not motions:
         raise ValueError("concatenate needs at least one motion")
@@ -844,4 +866,40 @@ def concatenate(motions: Iterable[Motion], name: str | None = None) -> Motion:
         root_positions=np.concatenate([m.root_positions for m in motions]),
         translations=tr,
         name=first.name if name is None else name,
+        source_frames=_joined_frames(motions),
     )
+
+
+def _joined_frames(motions: list[Motion]) -> range | None:
+    """The ``source_frames`` of ``motions`` one after another: the run of the file's frames they hold where each is
+    a contiguous slice of the first's file continuing the one before; else an empty range (None without a file)."""
+    first = motions[0]
+    if first.source_file is None:
+        return None
+    if len(motions) == 1:
+        return first.source_frames
+    spans = [m.source_frames for m in motions]
+    if any(m.source_file != first.source_file or s is None or len(s) != m.num_frames or (len(s) > 1 and s.step != 1)
+           for m, s in zip(motions, spans)):
+        return range(0)
+    if any(a.stop != b.start for a, b in zip(spans, spans[1:])):
+        return range(0)
+    return range(spans[0].start, spans[-1].stop)
+
+
+def source_part(motion: Motion, file_frames: int) -> range | None:
+    """The frames of its source file (one of ``file_frames`` frames) that ``motion`` holds, where they are a
+    contiguous run of them in the file's order, else None: what a writer keeps the file's lines of
+    (:func:`mocapkit.io.bvh.write_bvh`, :func:`mocapkit.io.amc_writer.write_amc`).
+
+    ``motion.source_frames`` None: the file's own frames when the take has ``file_frames`` of them (as read);
+    a range: those frames (a slice, a slice of a slice), if it is contiguous (step 1), as long as the take and
+    lies within the file. A strided slice, a resampled or concatenated take (an empty range) gives None: such a
+    take is written whole."""
+    F = motion.num_frames
+    frames = motion.source_frames
+    if frames is None:
+        return range(F) if F == file_frames else None
+    if len(frames) != F or (F > 1 and frames.step != 1) or frames.start < 0 or frames.start + F > file_frames:
+        return None
+    return range(frames.start, frames.start + F)

@@ -742,8 +742,8 @@ def test_only_changed_cells_change_their_text(src, tmp_path):
 def test_like_of_another_rig_or_length_writes_as_without(tmp_path):
     m = read_bvh(BUNDLED)
     out1, out2 = tmp_path / "a.bvh", tmp_path / "b.bvh"
-    short = m[:50]
-    write_bvh(short, out1, like=BUNDLED)  # another frame count: the file's text cannot serve
+    short = mocapkit.concatenate([m[:25], m[30:55]])  # none of the file's frames in order: its text cannot serve
+    write_bvh(short, out1, like=BUNDLED)
     write_bvh(short, out2)
     assert out1.read_bytes() == out2.read_bytes()
     write_bvh(m, out1, like=BANDAI)  # another rig

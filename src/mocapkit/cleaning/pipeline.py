@@ -675,8 +675,9 @@ def clean(
     if den_record is not None:  # listed in the order of STEPS, where the record has always listed it
         records.append(den_record)
 
-    if cur.source_file != motion.source_file:  # the file a writer keeps the text of (mocapkit.io.save's like)
-        cur = dataclasses.replace(cur, source_file=motion.source_file)
+    if cur.source_file != motion.source_file or cur.source_frames != motion.source_frames:
+        # the file a writer keeps the text of (mocapkit.io.save's like), and which of its frames the take holds
+        cur = dataclasses.replace(cur, source_file=motion.source_file, source_frames=motion.source_frames)
     params = dict(steps=list(steps), threshold=float(threshold), noise_deg=float(noise_deg), foot_skate=bool(foot_skate),
                   context="none" if context is None else _context_label(context), analysed=[int(lo), int(hi)])
     return CleanResult(

@@ -376,7 +376,7 @@ def _amc_dropped_comments(motion, path: Path, kind: str, like) -> str | None:
     that AMC, or an .npz keeping its text), or None. An AMC or .npz written like that AMC (the take on its
     skeleton and frames: :func:`mocapkit.io.amc_writer.source_numbers` gives its text) keeps them; any other
     output (a BVH, an AMC or .npz at another rate or frame count, a slice) does not, as for a BVH's comments."""
-    from .amc_writer import source_numbers
+    from .amc_writer import kept_lines, source_numbers
     from .asfamc import amc_comment_lines
     from .kept_channels import kept_text
     from .sources import recall
@@ -388,6 +388,9 @@ def _amc_dropped_comments(motion, path: Path, kind: str, like) -> str | None:
         n = amc_comment_lines(data) if data is not None else 0
         if n and kind in ("amc", "npz") and motion.skeleton.axes is not None:
             n = 0 if source_numbers(motion, like, with_text=True)[2] is not None else n
+        if n and kind == "amc":  # written like it, a slice of its frames: its header's and those frames' kept
+            kept = kept_lines(motion, like)
+            n -= 0 if kept is None else amc_comment_lines(kept.encode("latin-1"))
     except MocapError:
         return None
     if not n:

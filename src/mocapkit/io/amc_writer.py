@@ -50,7 +50,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapFormatError
 from .outputs import check_file_path
-from ..motion import Motion
+from ..motion import Motion, source_part
 from .asfamc import amc_dofs, amc_table_arrays, with_rate
 from .euler_branches import MEASURED_TOLERANCE_DEG, bridged, measured_text, partly_missing, source_branches
 from .kept_channels import kept_values
@@ -305,9 +305,19 @@ def source_numbers(motion: Motion, like, asf=None, with_text: bool = False) -> t
         if src.radians:
             rot = np.array([x[0] == "r" for d in dofs for x in d])
             numbers[:, rot] = np.degrees(numbers[:, rot])
-        return (numbers, dofs, src.text) if with_text else (numbers, dofs)
+        return (numbers, dofs, src.text if src.whole else None) if with_text else (numbers, dofs)
     kept = _kept_source(like, motion, dofs)
     return ((None if kept is None else kept.numbers), dofs) + ((None,) if with_text else ())
+
+
+def kept_lines(motion: Motion, like, asf=None) -> str | None:
+    """The text of the AMC ``like`` that an AMC written from ``motion`` like it keeps: its header and the lines of
+    the frames ``motion`` holds (all, or a slice's: :func:`mocapkit.motion.source_part`), for the count of its
+    comment lines left out; None where ``motion`` is not written like it."""
+    if like is None or like is False or motion.skeleton.axes is None or motion.num_frames == 0:
+        return None
+    src = _like_source(like, motion, file_dofs(motion, asf, like))
+    return None if src is None else src.header + "".join("".join(block) for block in src.frames)
 
 
 def _kept_source(like, motion: Motion, dofs) -> _Kept | None:
@@ -333,6 +343,7 @@ class _LikeSource:
     moved: np.ndarray  # (F,) bool: frames whose root position differs from the file's
     numbers: np.ndarray  # (F, columns): the file's numbers, each bone's dofs in file order (its own branches)
     text: bytes  # the file's bytes as read, which an .npz made from the take keeps (kept_channels.TEXT_KEYS)
+    whole: bool = True  # the take holds every frame of the file (else a contiguous part: motion.source_part)
 
 
 def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
@@ -354,7 +365,8 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
     except (MocapFormatError, OSError):
         return None
     body_at, _, radians = amc_header(data)  # the reader's rule for where the frames start and the units
-    if ref.num_frames != motion.num_frames or radians is None:
+    part = source_part(motion, ref.num_frames)  # the file's frames the take holds: all of them, or a slice's
+    if part is None or radians is None:
         return None  # radians None: units left to the ASF; the file is written whole, its units stated
     frames: list[list[str]] = []
     for line in data[body_at:].decode("latin-1").splitlines(keepends=True):
@@ -364,14 +376,17 @@ def _like_source(like, motion: Motion, dofs) -> _LikeSource | None:
             frames[-1].append(line)
         else:
             return None  # the body does not open with a frame number
-    if len(frames) != motion.num_frames:
+    if len(frames) != ref.num_frames:
         return None
+    whole = len(part) == ref.num_frames
+    if not whole:  # a slice: its frames' blocks as the file numbers them (an AMC's frame numbers run on from any)
+        frames, ref, numbers = frames[part.start:part.stop], ref[part.start:part.stop], numbers[part.start:part.stop]
     header = data[:body_at].decode("latin-1")
     turned = np.any((motion.rotations != ref.rotations), axis=-1)
     moved = np.any(np.asarray(motion.root_positions) != ref.root_positions, axis=-1)
     changed = turned.copy()
     changed[:, 0] |= moved
-    return _LikeSource(header, frames, radians, changed, turned, moved, numbers, data)
+    return _LikeSource(header, frames, radians, changed, turned, moved, numbers, data, whole)
 
 
 def _write_like(path: Path, motion: Motion, dofs, source: _LikeSource, precision: int) -> None:

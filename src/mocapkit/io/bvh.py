@@ -33,11 +33,11 @@ import numpy as np
 from ..errors import MocapFormatError, SkeletonError
 from .outputs import check_file_path
 from .. import rotations as R
-from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
+from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps, source_part
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exact_number, fps_from_frame_time,
-                            hierarchy_text, shortest)
+                            hierarchy_text, shortest, with_frame_count)
 from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
@@ -756,6 +756,8 @@ def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:
         fps=motion.fps,
         name=motion.name,
         translations=motion.translations,
+        source_file=motion.source_file,
+        source_frames=motion.source_frames,  # the file's frames it holds: a slice is written with their lines
     )
     return out_motion, channels
 
@@ -799,6 +801,8 @@ def source_kept(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[st
         return None, channels, None, None, None
     if isinstance(source, _Kept):
         return source.values, channels, None, kept_comments(like, motion.num_frames), None
+    if not source.whole:  # a part of the file's frames: its numbers; the file's text is kept for the whole take only
+        return source.values, channels, None, None, None
     header = None if source.header is None or source.layout.extras else "".join(source.header)
     return source.values, channels, header, source.between, source.text
 
@@ -847,6 +851,8 @@ class _LikeSource:
     inside: list[tuple[int, str]]  # the comments inside the take's ROOT block, anchored (bvh_comments.anchored)
     keywords: int  # the hierarchy keywords of the take's ROOT block as the file writes it
     text: bytes  # the file's bytes as read, which an .npz made from the take keeps (kept_channels.TEXT_KEYS)
+    whole: bool = True  # the take holds every frame of the file (else a contiguous part: motion.source_part)
+    left_out: int = 0  # the comment lines of the motion section a part leaves out (those among other frames)
 
 
 def _differs(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -869,8 +875,9 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     except MocapFormatError:
         return None
     sk, rsk = motion.skeleton, ref.skeleton
+    part = source_part(motion, ref.num_frames)  # the file's frames the take holds: all of them, or a slice's
     if (rsk.joint_names != sk.joint_names or not np.array_equal(rsk.parents, sk.parents)
-            or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or ref.num_frames != motion.num_frames):
+            or tuple(map(tuple, rsk.channels)) != tuple(map(tuple, sk.channels)) or part is None):
         return None
     text = data
     lines = _LINE_RE.findall(data.decode("utf-8", errors="replace"))  # lines as the reader counts them (at "\n")
@@ -878,8 +885,14 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     if at is None:
         return None
     data, between = motion_comments(lines[at + 1:])
-    if len(data) != motion.num_frames:
+    if len(data) != ref.num_frames:
         return None
+    whole, left_out = len(part) == ref.num_frames, sum(map(len, between))
+    if not whole:  # a slice: its frames' lines and the comments before each (those after the last at the file's end)
+        cut = slice(part.start, part.stop)
+        data, between = data[cut], between[cut] + [between[-1] if part.stop == ref.num_frames else []]
+        ref, table, lines = ref[cut], table[cut], with_frame_count(lines, at, motion.num_frames)
+    left_out -= sum(map(len, between))  # the motion section's comments among other frames: not written
     turned = _differs(motion.rotations, ref.rotations)
     moved = _differs(motion.local_offsets(), ref.local_offsets())
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)
@@ -891,7 +904,8 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
         return None
     block = [] if same_header else lines[where.lines[0] - 1:where.lines[1]]
     return _LikeSource(lines[: at + 1] if same_header else None, data, turned, moved, table, where, around, between,
-                       anchored(block), keyword_count(block), text)
+                       anchored(block), keyword_count(block), text, whole, left_out)
+
 
 
 def _new_block(source: _LikeSource, sk, channels) -> tuple[str, int]:
@@ -920,7 +934,7 @@ def dropped_comments(motion: Motion, like) -> int:
     source = _like_source(like, out_motion, depth_first_order(motion.skeleton))
     if source is None:
         return total
-    return 0 if source.header is not None else _new_block(source, out_motion.skeleton, channels)[1]
+    return source.left_out + (0 if source.header is not None else _new_block(source, out_motion.skeleton, channels)[1])
 
 
 def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source: _LikeSource, precision: int) -> None:

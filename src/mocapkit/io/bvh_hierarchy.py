@@ -8,13 +8,16 @@ take's rate: read by :func:`fps_from_frame_time` as the rate it was written for,
 
 from __future__ import annotations
 
+import re
 from decimal import Decimal, InvalidOperation
 
 from ..errors import MocapFormatError
 from ..motion import Skeleton
 
 __all__ = ["MAX_INDENT", "NTSC_FPS", "check_bvh_names", "depth_first_order", "fps_from_frame_time", "hierarchy_text",
-           "shortest"]
+           "shortest", "with_frame_count"]
+
+_FRAMES_LINE = re.compile(r"^\s*Frames\s*:\s*(\S+)\s*$")
 
 
 def shortest(x: float) -> str:
@@ -159,3 +162,12 @@ def hierarchy_text(sk: Skeleton, channels, order: list[int]) -> list[str]:
     while open_joints:
         close()
     return parts
+
+
+def with_frame_count(lines: list[str], at: int, frames: int) -> list[str]:
+    """``lines`` (a BVH's, line endings kept; ``at``: its ``Frame Time:`` line) with the number of its ``Frames:``
+    line (the last before ``at``) made ``frames``, the rest of that line (spacing, line ending) as the file has it:
+    the header of a slice of the file's frames, its ``Frame Time:`` line the file's."""
+    k = next(i for i in range(at - 1, -1, -1) if _FRAMES_LINE.match(lines[i]))
+    m = _FRAMES_LINE.match(lines[k])
+    return lines[:k] + [lines[k][:m.start(1)] + str(frames) + lines[k][m.end(1):]] + lines[k + 1:]

@@ -1,0 +1,77 @@
+"""A take's frames as its file's: a slice written with the file's own lines."""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import samples
+from mocapkit.io import motion_notes
+
+DATA = Path(__file__).resolve().parents[1] / "data"
+FLIP = DATA / "dataset-2_raise-up-right-hand_active_060_flip.bvh"
+
+
+def _bvh_parts(path):
+    """(header lines up to Frame Time, frame lines) of a BVH without comment lines, line endings kept."""
+    lines = open(path, encoding="utf-8", newline="").read().splitlines(keepends=True)
+    at = next(i for i, t in enumerate(lines) if t.lstrip().startswith("Frame Time"))
+    return lines[: at + 1], [t for t in lines[at + 1:] if t.strip()]
+
+
+def _file_numbers(path):
+    return np.array([[float(x) for x in t.split()] for t in _bvh_parts(path)[1]])
+
+
+def test_a_bvh_slice_and_a_slice_of_it_are_written_with_the_files_lines(tmp_path):
+    src = samples.path("131_01.bvh")  # CMU: "Frame Time: .0083333", 4-decimal numbers
+    m = mocapkit.load(src)
+    head, rows = _bvh_parts(src)
+    for part, (a, b) in ((m[100:200], (100, 200)), (m[100:200][10:50], (110, 150)), (m[993], (993, 994))):
+        out = tmp_path / f"s{a}.bvh"
+        mocapkit.save(part, out)
+        h, r = _bvh_parts(out)
+        assert r == rows[a:b]  # every line byte for byte
+        assert part.source_frames == range(a, b)
+        assert h[-1] == head[-1] and h[-2].split() == ["Frames:", str(b - a)] and h[:-2] == head[:-2]
+        back = mocapkit.load(out)
+        assert np.array_equal(back.rotations, part.rotations) and back.fps == m.fps
+    edited = m[100:200]
+    rot = np.array(edited.rotations)
+    rot[5, 3] = [1.0, 0.0, 0.0, 0.0]
+    mocapkit.save(dataclasses.replace(edited, rotations=rot), tmp_path / "e.bvh")
+    r = _bvh_parts(tmp_path / "e.bvh")[1]
+    assert [k for k in range(100) if r[k] != rows[100 + k]] == [5]  # only the changed frame's line is new
+
+
+def test_a_concatenation_resampling_or_strided_slice_is_written_whole(tmp_path):
+    from mocapkit.motion import source_part
+
+    m = mocapkit.load(samples.path("131_01.bvh"))
+    _, rows = _bvh_parts(samples.path("131_01.bvh"))
+    joined = mocapkit.concatenate([m[:100], m[200:300]])
+    assert len(joined.source_frames) == 0 and source_part(joined, m.num_frames) is None
+    for take in (joined, m.resample(60)[10:20], m[::2][5:10]):
+        assert source_part(take, m.num_frames) is None
+        mocapkit.save(take, tmp_path / "w.bvh")
+        mocapkit.save(take, tmp_path / "whole.bvh", like=False)
+        assert (tmp_path / "w.bvh").read_bytes() == (tmp_path / "whole.bvh").read_bytes()
+    chained = mocapkit.concatenate([m[100:150], m[150:200]])  # consecutive slices: the file's frames 100-199
+    assert chained.source_frames == range(100, 200)
+    mocapkit.save(chained, tmp_path / "c.bvh")
+    assert _bvh_parts(tmp_path / "c.bvh")[1] == rows[100:200]
+
+
+def test_an_amc_slice_is_written_with_the_files_frame_blocks(tmp_path):
+    src = samples.path("12_walk.amc")  # CMU: CRLF, a #!OML:ASF line, frames numbered from 1
+    m = mocapkit.load(src)
+    lines = open(src, encoding="latin-1", newline="").read().splitlines(keepends=True)
+    part = m[10:40][5:25]  # the file's frames 15-34, numbered 16-35 in the file
+    mocapkit.save(part, tmp_path / "p.amc")
+    out = open(tmp_path / "p.amc", encoding="latin-1", newline="").read().splitlines(keepends=True)
+    first, start, stop = lines.index("1\r\n"), lines.index("16\r\n"), lines.index("36\r\n")
+    assert out == lines[:first] + lines[start:stop]  # the header and those frames' blocks, byte for byte
+    back = mocapkit.load(tmp_path / "p.amc", asf=samples.path("12.asf"))
+    assert np.array_equal(back.rotations, part.rotations) and np.array_equal(back.root_positions, part.root_positions)
