@@ -616,9 +616,15 @@ class Motion:
     def channel_values(self) -> np.ndarray:
         """All file channels (F, C): positions in file units, rotations in degrees, in file order.
 
-        These are the "joint angles as the BVH gives them" (for ASF skeletons:
-        the AMC degrees of freedom, with the ``axis`` frame removed). Joints
-        without rotation channels contribute nothing; scale channels are 1.
+        Each rotation's Euler angles in the skeleton's channel order (for ASF skeletons: the AMC degrees of
+        freedom, with the ``axis`` frame removed) as the plain conversion gives them
+        (:func:`mocapkit.rotations.quaternion_to_euler`), frame by frame: the first and last angle in
+        [-180, 180], the middle one of three in [-90, 90]. They give each rotation exactly, but not always the
+        file's numbers: a file that writes an angle past 180 degrees or on the other Euler solution (CMU's
+        01_01.bvh Hips, 2,668 of its cells) reads here wrapped, with 360-degree jumps the file does not have.
+        The numbers as the BVH gives them (the file's own where the take did not change, else continuous over
+        frames) are :func:`mocapkit.io.bvh.written_values`, what the writer writes. Joints without rotation
+        channels contribute nothing; scale channels are 1.
         """
         sk = self.skeleton
         local = self.local_offsets()

@@ -1,4 +1,4 @@
-"""A take's frames as its file's: a slice written with the file's own lines."""
+"""A take's frames as its file's: a slice written with the file's own lines, the numbers as the file gives them."""
 
 import dataclasses
 from pathlib import Path
@@ -75,3 +75,24 @@ def test_an_amc_slice_is_written_with_the_files_frame_blocks(tmp_path):
     assert out == lines[:first] + lines[start:stop]  # the header and those frames' blocks, byte for byte
     back = mocapkit.load(tmp_path / "p.amc", asf=samples.path("12.asf"))
     assert np.array_equal(back.rotations, part.rotations) and np.array_equal(back.root_positions, part.root_positions)
+
+
+def test_written_values_are_the_files_numbers_where_channel_values_wrap():
+    from mocapkit.io.bvh import written_values
+
+    m = mocapkit.load(FLIP)  # Bandai: 8 cells written past 180 degrees
+    file = _file_numbers(FLIP)
+    assert np.abs(m.channel_values() - file).max() == pytest.approx(360.0)
+    assert np.array_equal(written_values(m), file)
+    assert np.array_equal(written_values(m[10:30]), file[10:30])
+
+
+def test_written_values_of_cmu_01_01_are_the_files(shared_data):
+    from mocapkit.io.bvh import written_values
+
+    path = shared_data / "cmu_bvh" / "01_01.bvh"  # Hips written on other branches than the plain conversion's
+    m = mocapkit.load(path)
+    file = _file_numbers(path)
+    assert int((np.abs(m.channel_values() - file) > 1e-6).sum()) > 2000
+    assert np.abs(written_values(m) - file).max() <= 1e-9
+    assert np.abs(written_values(m[1200:1300]) - file[1200:1300]).max() <= 1e-9

@@ -48,7 +48,7 @@ from ..words import plural
 from numba import njit
 
 __all__ = ["read_bvh", "write_bvh", "check_bvh_names", "read_layout", "source_fits", "source_values", "source_kept",
-           "dropped_comments",
+           "dropped_comments", "written_values",
            "MAX_INDENT", "NEAR_SOURCE_DEG"]
 
 _CHANNELS = {c.lower(): c for c in ("Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation",
@@ -699,17 +699,8 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         if n:
             raise MocapFormatError(path, f"motion has missing values (NaN) in {plural(n, 'frame')}; fill them or save as .npz")
 
-    out_motion, channels = _as_written(motion)
-    values = out_motion.channel_values()
-    # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
-    # hierarchy) is written in depth-first order with its channel columns permuted to match.
+    out_motion, channels, order, source, values = _written(motion, like)
     sk = motion.skeleton
-    order = depth_first_order(sk)
-    source = _source_numbers(like, out_motion, order)
-    continuous_rotations(values, channels, source)
-    if order != list(range(sk.num_joints)):
-        starts = np.cumsum([0] + [len(c) for c in channels])
-        values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
     if isinstance(source, _LikeSource):
         _write_like(path, out_motion, values, channels, source, precision)
         return
@@ -735,6 +726,34 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
             fh.write("".join("".join(c) + " ".join(exact_number(w) if o else fmt % v for v, w, o in zip(r, q, k)) + end
                              for r, q, k, c in zip(rows.tolist(), file.tolist(), own, between[f0 : f0 + block])))
         fh.write("".join(between[F]))
+
+
+def written_values(motion: Motion, like=None) -> np.ndarray:
+    """The numbers (F, C) a BVH written from ``motion`` holds (:func:`write_bvh`'s, ``like`` by default
+    ``motion.source_file``): file units and degrees, joints depth first, each with its channels as written (a take
+    read from a BVH: the file's, :meth:`~mocapkit.motion.Motion.channel_names`). Where the take holds that file's
+    frames (all, or a slice's) an unchanged cell is the file's own number, a changed angle on the file's branch
+    (:func:`mocapkit.io.euler_branches.continuous_rotations`); else each joint's angles continuous over frames:
+    the joint angles as the file gives them (CMU's 01_01.bvh Hips past 180 degrees), not the plain conversion of
+    :meth:`~mocapkit.motion.Motion.channel_values`."""
+    return _written(motion, motion.source_file if like is None else like)[4]
+
+
+def _written(motion: Motion, like):
+    """``(out_motion, channels, order, source, values)`` of :func:`write_bvh`: the take on the layout written
+    (:func:`_as_written`), its depth-first order, what it keeps of ``like`` and the numbers written (F, C)."""
+    out_motion, channels = _as_written(motion)
+    values = out_motion.channel_values()
+    # BVH lists joints depth first; a skeleton in another topological order (e.g. from an ASF
+    # hierarchy) is written in depth-first order with its channel columns permuted to match.
+    sk = motion.skeleton
+    order = depth_first_order(sk)
+    source = _source_numbers(like, out_motion, order)
+    continuous_rotations(values, channels, source)
+    if order != list(range(sk.num_joints)):
+        starts = np.cumsum([0] + [len(c) for c in channels])
+        values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
+    return out_motion, channels, order, source, values
 
 
 def _as_written(motion: Motion) -> tuple[Motion, tuple[tuple[str, ...], ...]]:
