@@ -1,4 +1,5 @@
-"""A take's frames as its file's: a slice written with the file's own lines, the numbers as the file gives them."""
+"""A take's frames as its file's: a slice written with the file's own lines, the numbers as the file gives them,
+and what a BVH of an ASF take leaves out (its length unit)."""
 
 import dataclasses
 from pathlib import Path
@@ -96,3 +97,16 @@ def test_written_values_of_cmu_01_01_are_the_files(shared_data):
     assert int((np.abs(m.channel_values() - file) > 1e-6).sum()) > 2000
     assert np.abs(written_values(m) - file).max() <= 1e-9
     assert np.abs(written_values(m[1200:1300]) - file[1200:1300]).max() <= 1e-9
+
+
+def test_a_bvh_of_an_asf_take_says_it_leaves_out_the_length_unit(tmp_path):
+    h = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    out = tmp_path / "h.bvh"
+    note = next((n for n in motion_notes(h, out) if "length unit" in n), None)
+    assert note == (f"{out}: not written: the length unit, 5.644 cm (stated by {samples.path('HDM_bk.asf')}): "
+                    "a BVH has no field for it, a reader guesses it from the bones (an .npz keeps it)")
+    from mocapkit.io import unit_note
+
+    assert note == unit_note(h, out)
+    assert unit_note(h, tmp_path / "h.npz") is None and unit_note(h, tmp_path / "h.amc") is None
+    assert unit_note(mocapkit.load(samples.path("131_01.bvh")), out) is None  # a BVH states no unit to lose

@@ -24,7 +24,7 @@ from ..words import plural
 from .outputs import check_file_path, missing_folders, named_as_given, publish, temp_prefix
 
 __all__ = ["load", "save", "check_writable", "check_complete", "load_markers", "save_markers", "check_keep_modelled",
-           "marker_notes", "motion_notes", "atomic_write",
+           "marker_notes", "motion_notes", "unit_note", "atomic_write",
            "MarkerSet",
            "READERS", "WRITERS", "MARKER_FORMATS"]
 
@@ -352,7 +352,21 @@ def motion_notes(motion, path, like=None) -> list[str]:
             notes.append(f"{path}: not written: {plural(n, 'comment line')} of {like} ({why})")
     amc = _amc_dropped_comments(motion, path, kind, like)
     unread = unread_note(path, like if like not in (None, False) else motion.source_file)
-    return notes + ([amc] if amc else []) + ([unread] if unread else [])
+    unit = unit_note(motion, path)
+    return notes + ([amc] if amc else []) + ([unread] if unread else []) + ([unit] if unit else [])
+
+
+def unit_note(motion, path) -> str | None:
+    """The line saying that the BVH ``path`` leaves out ``motion``'s stated length unit (``skeleton.unit_cm``: an
+    ASF's ``:units length``, HDM05's 5.644 cm, or a ``--unit`` given), or None: a BVH has no field for it, so a
+    reader of the file guesses it from the bones, assuming an adult (:func:`mocapkit.motion.unit_scale_cm`). An
+    AMC is read with the ASF stating it, an .npz keeps it."""
+    cm = getattr(motion.skeleton, "unit_cm", None)
+    if cm is None or suffix_kind(Path(path), WRITERS, "writing") != "bvh":
+        return None
+    asf = motion.skeleton.source_file
+    return (f"{path}: not written: the length unit, {float(cm):.4g} cm{f' (stated by {asf})' if asf else ''}: a BVH "
+            "has no field for it, a reader guesses it from the bones (an .npz keeps it)")
 
 
 def unread_note(path, inp) -> str | None:
