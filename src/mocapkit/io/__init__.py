@@ -443,7 +443,11 @@ def save(motion, path, like=None, asf=None, overwrite: bool | None = None, copy_
     the input's text as ``mocapkit clean`` does; ``False`` writes the file whole. A BVH written from a
     BVH, or an AMC from an AMC, keeps that file's text wherever the motion did not change (see
     :func:`mocapkit.io.bvh.write_bvh` and :func:`mocapkit.io.amc_writer.write_amc`), so an untouched take
-    comes back the same file; other pairs of formats ignore it. When that file was changed or removed
+    comes back the same file, and a contiguous slice of it (``take[100:200]``: ``Motion.source_frames``) the
+    file's lines of those frames; a concatenation, a resampled or a strided take is written whole. Other pairs
+    of formats ignore it. What the output leaves out of the take (a BVH: the length unit an ASF states, comment
+    lines, other roots) is not warned of here: :func:`motion_notes` gives those lines, as the commands print
+    them. When that file was changed or removed
     since the take was read and its text is no longer kept (:mod:`mocapkit.io.sources`), the save is
     refused in one line (``like=False`` writes it whole).
 

@@ -201,8 +201,9 @@ def write_amc(motion: Motion, path, precision: int = 6, like=None, asf=None) -> 
     take was read with (by default the one beside ``like``), whose ``:root
     order`` the root's line follows; like : the AMC file ``motion`` was read
     from, or an .npz made from it that keeps its text (:func:`mocapkit.io.kept_channels.kept_text`; the root's
-    order then as that AMC had it, :func:`_kept_dofs`). Where it is that file (same skeleton, same
-    frame count, its units stated in its header), every frame whose rotations
+    order then as that AMC had it, :func:`_kept_dofs`). Where it is that file (same skeleton, the take
+    holding its frames, all or a contiguous slice's as the file numbers them, :func:`mocapkit.motion.source_part`;
+    its units stated in its header), every frame whose rotations
     and root position are bit for bit the file's is copied as the file has it,
     and a changed cell rewrites only its bone's numbers, on the triple nearest
     the file's numbers of that cell, or for a rotation turned 90 degrees or more

@@ -651,9 +651,9 @@ def write_bvh(motion: Motion, path, precision: int = 6, allow_nan: bool = False,
         instead of raising.
     like : str or path-like, optional
         The BVH file ``motion`` was read from (and then cleaned, denoised,
-        ...). Where the two agree on joints, channels and frame count, every
-        (frame, joint) cell whose rotation, position and offset are bit for bit
-        what the file gives keeps the file's own text (a frame with no changed
+        ...). Where the two agree on joints and channels and the take holds the file's frames (all, or a
+        contiguous slice's: :func:`mocapkit.motion.source_part`), every (frame, joint) cell whose rotation,
+        position and offset are bit for bit what the file gives keeps the file's own text (a frame with no changed
         cell is the file's line, byte for byte, with its line ending; the header too when the
         skeleton and rate are the file's), and a changed joint's rotation is
         written as the Euler triple (whole turns, either branch of the middle
