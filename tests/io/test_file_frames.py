@@ -110,3 +110,17 @@ def test_a_bvh_of_an_asf_take_says_it_leaves_out_the_length_unit(tmp_path):
     assert note == unit_note(h, out)
     assert unit_note(h, tmp_path / "h.npz") is None and unit_note(h, tmp_path / "h.amc") is None
     assert unit_note(mocapkit.load(samples.path("131_01.bvh")), out) is None  # a BVH states no unit to lose
+
+
+def test_a_slice_keeps_the_comments_among_its_frames_and_says_how_many_it_leaves_out(tmp_path):
+    lines = open(samples.path("131_01.bvh"), encoding="utf-8", newline="").read().splitlines(keepends=True)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    src = tmp_path / "c.bvh"
+    src.write_text("".join(lines[:1] + ["# header\n"] + lines[1:at + 5] + ["# 5\n"] + lines[at + 5:at + 150] + ["# 150\n"]
+                           + lines[at + 150:] + ["# end\n"]), encoding="utf-8", newline="")
+    m = mocapkit.load(src)
+    for part, kept in ((m[100:200], ["# header", "# 150"]), (m[900:], ["# header", "# end"])):
+        mocapkit.save(part, tmp_path / "o.bvh")
+        assert [t.strip() for t in open(tmp_path / "o.bvh", encoding="utf-8") if t.startswith("#")] == kept
+        assert motion_notes(part, tmp_path / "o.bvh") == [f"{tmp_path / 'o.bvh'}: not written: 2 comment lines of {src} "
+                                                          "(a slice keeps the header's and those among its own frames)"]

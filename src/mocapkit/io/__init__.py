@@ -340,6 +340,8 @@ def motion_notes(motion, path, like=None) -> list[str]:
     if like is not None and Path(like).suffix.lower() == ".bvh" and not text:
         if carried:
             n, why = dropped_comments(motion, like), "their places in the take's hierarchy written anew are not known"
+            if motion.source_frames:  # a slice of the file's frames (Motion.source_frames)
+                why = "a slice keeps the header's and those among its own frames"
         else:
             data = recall(Path(like))
             n = comment_lines(data) if data is not None else 0
