@@ -226,3 +226,31 @@ def test_labels_cycled_at_one_frame_are_each_a_decision_of_their_own():
     assert md.tied(taken, res.markers, res.fixes) == []
     assert sorted(c.id for c in md.changes(taken, res.markers, res.fixes)) == sorted(
         f"swap:{f.marker}:100-199" for f in res.fixes if f.kind == "swap") and len(res.fixes) == 3
+
+
+def test_a_spike_removed_beside_a_gap_left_missing_is_a_spike_change_and_old_decisions_still_apply():
+    """A recorded sample removed as a spike beside a gap no fill is written for (here longer than ``max_gap_s``)
+    is a spike fix with the distance that made it one, not a nameless ``change`` ("changed by the cleaning");
+    a decisions file from before 0.17.0, which named it ``change:M:A-B``, is honoured as the same samples'."""
+    original = load_markers(Path(md.__file__).parents[2] / "data" / "Eb015pr.c3d")
+    p = np.array(original.positions)
+    p[100:120, 0] = np.nan
+    p[120, 0] += (0.0, 0.0, 60.0)  # mm: a 60 mm glitch on the first sample seen after the gap
+    broken = original.with_positions(p)
+    res = clean_markers(broken, max_gap_s=0.05)
+    assert np.isnan(res.markers.positions[120, 0]).all() and not np.isnan(p[120, 0]).any()  # removed, left missing
+    row = next(c for c in md.changes(broken, res.markers, res.fixes) if c.first <= 120 <= c.last and c.marker_index == 0)
+    assert row.id == "spike:RFT1:120-120" and row.size_words() == "removed, left missing"
+    fix = next(x for x in res.fixes if x.kind == "spike" and x.start == 120)
+    assert 40 < fix.miss_mm < 80 and "mm off the line" in fix.size_text and "longer than --max-gap" in fix.size_text
+    old_fixes = [x for x in res.fixes if x is not fix]  # what a 0.16.0 cleaning listed
+    old = md.changes(broken, res.markers, old_fixes)
+    assert "change:RFT1:120-120" in {c.id for c in old}
+    doc = md.template(broken, old, cleaned=res.markers, decisions={"change:RFT1:120-120": "reject"})
+    chosen = md.check(doc, "old.decisions.json", broken, res.markers, res.fixes)
+    assert chosen["spike:RFT1:120-120"] == "reject" and "change:RFT1:120-120" not in chosen
+    back = md.apply(broken, res.markers, res.fixes, chosen)
+    assert np.array_equal(back.positions[120, 0], p[120, 0])  # the rejected removal: the recorded sample
+    new = md.template(broken, md.changes(broken, res.markers, res.fixes), cleaned=res.markers,
+                      decisions={"spike:RFT1:120-120": "reject"})  # a new file on a 0.16.0 record's fixes
+    assert md.check(new, "new.decisions.json", broken, res.markers, old_fixes)["change:RFT1:120-120"] == "reject"

@@ -90,6 +90,10 @@ class MarkerFix:
     left missing, why no fill was written (:attr:`why_left`): longer than
     ``--max-gap``, or the plausibility guard's reason; "" where filled, or
     from a record written before 0.16.0 (read as "no plausible fill").
+    ``miss_mm``: for a spike left missing (no fill to measure ``size_mm`` from, so NaN), how far its removed
+    samples lay off the straight line through the two seen samples beside the run (the one-sided in-time
+    prediction of :mod:`~mocapkit.cleaning.markers.edges`; the nearer side where both are seen): the distance
+    that made them a spike; NaN where neither side has two seen samples, or from a record written before 0.17.0.
     """
 
     marker: str
@@ -108,6 +112,7 @@ class MarkerFix:
     fill_note: str = ""
     order: int = 0
     left: str = ""
+    miss_mm: float = float("nan")
 
     @property
     def fill_text(self) -> str:
@@ -159,10 +164,12 @@ class MarkerFix:
         if self.kind == "coincident":
             return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
                     f"label, which one cannot be told ({self.note}): both left as recorded")
+        off = (f"; removed samples up to {self.miss_mm:.1f} mm off the line through the seen samples beside them "
+               "(what made them a spike)" if self.kind == "spike" and np.isfinite(self.miss_mm) else "")
         if self.too_long:
-            return f"{self.seconds:.2f} s: left missing: {self.note}"
+            return f"{self.seconds:.2f} s: left missing: {self.note}{off}"
         if self.note:
-            return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note})"
+            return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note}){off}"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends" if self.ends != 1 else
                 "extrapolated from its one seen end: fill up to {} mm from the sample seen there",
                 "spike": "removed samples up to {} mm from the fill",
@@ -449,6 +456,34 @@ def _edge_spikes(spikes: np.ndarray, recorded: np.ndarray, filled: np.ndarray, a
     return out
 
 
+def _line_miss(recorded: np.ndarray, seen: np.ndarray, s: int, e: int) -> float:
+    """How far the recorded samples ``s <= f < e`` of one marker lie off the straight line through the two seen
+    samples next to the run, extrapolated across it (the one-sided in-time test of
+    :mod:`~mocapkit.cleaning.markers.edges`): the largest distance over the run, from the nearer-predicting side
+    where both sides have two seen samples; NaN where neither has. ``recorded`` (F, 3) the samples before the
+    spikes were removed, ``seen`` (F, 3) after (NaN where removed or unseen), in the capture's unit."""
+    f, out = seen.shape[0], []
+    for near, far in ((s - 1, s - 2), (e, e + 1)):
+        if 0 <= min(near, far) and max(near, far) < f and not np.isnan(seen[[near, far]]).any():
+            t = np.arange(s, e)[:, None]
+            line = seen[near] + (seen[near] - seen[far]) * (t - near) / (near - far)
+            out.append(float(np.max(np.linalg.norm(recorded[s:e] - line, axis=-1))))
+    return min(out) if out else float("nan")
+
+
+def _left_spikes(spikes: np.ndarray, recorded: np.ndarray, seen: np.ndarray, a: int, b: int, label: str,
+                 unit_mm: float, fps: float, note: str) -> list[MarkerFix]:
+    """The spike fixes inside a gap ``a <= f < b`` of one marker that was left missing: runs removed beside the gap
+    (:mod:`~mocapkit.cleaning.markers.edges`) are removed recorded samples, a change, though no fill replaced
+    them; size NaN (left missing), ``miss_mm`` the distance that made them a spike (:func:`_line_miss`), ``note``
+    why no fill was written, ``seconds`` the run's duration at ``fps``. ``spikes`` (F,) its spike mask;
+    ``recorded``, ``seen`` (F, 3) as for :func:`_line_miss`."""
+    d = np.diff(np.concatenate([[0], spikes[a:b].astype(np.int8), [0]]))
+    return [MarkerFix(label, int(s), int(e), "spike", float("nan"), note=note, seconds=(e - s) / fps,
+                      miss_mm=_line_miss(recorded, seen, int(s), int(e)) * unit_mm)
+            for s, e in zip(np.flatnonzero(d == 1) + a, np.flatnonzero(d == -1) + a)]
+
+
 def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: float = 15.0,
                   max_gap_s: float | None = None, constrain: bool = True,
                   max_error_mm: float | None = None) -> MarkerCleanResult:
@@ -553,7 +588,11 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                         expected_mm=r.expected_error * unit_mm)
                 continue
             is_spike = bool(np.all(spikes[run, r.marker]))
+            edge = (spikes[:, r.marker], before_fill[:, r.marker], y[:, r.marker], r.start, r.end, labels[r.marker],
+                    unit_mm, markers.fps)
             if not is_spike and "gaps" not in steps and not np.any(dups[run, r.marker]):
+                # spikes removed beside a gap the gaps step does not fill: removed recorded samples, a change
+                fixes.extend(_left_spikes(*edge, "beside a gap, and the gaps step was not asked for"))
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
@@ -562,9 +601,12 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                 why = f"{TOO_LONG} ({max_gap_s:g} s)" if r.implausible.startswith(TOO_LONG) else r.implausible
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),
                                      note=why, **how)
-                unfilled.append(left_fix)
                 if is_spike:
+                    left_fix = dataclasses.replace(left_fix, miss_mm=_line_miss(*edge[1:5]) * unit_mm)
                     fixes.append(left_fix)
+                else:  # spikes removed beside the gap (edges) are changes of their own, as a filled gap's are
+                    fixes.extend(_left_spikes(*edge, why))
+                unfilled.append(left_fix)
                 continue
             y[run, r.marker] = out[run, r.marker]
             filled[run, r.marker] = ~spikes[run, r.marker] & ~dups[run, r.marker]  # each sample counted once

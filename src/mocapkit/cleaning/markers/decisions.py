@@ -57,7 +57,7 @@ from ...words import plural
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed",
            "apply", "cleaning_digest",
-           "template", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
+           "template", "same_samples", "check", "review", "record_cells", "result_from_record", "check_record", "decided_result",
            "clean_and_decide"]
 
 _ORDER = ("duplicate", "foreign", "spike", "gap", "swap")  # who owns a sample two fixes touched
@@ -83,8 +83,8 @@ class MarkerChange:
     reason: str = ""
 
     def size_words(self) -> str:
-        if math.isnan(self.size_mm):
-            return "left missing"
+        if math.isnan(self.size_mm):  # a recorded sample removed and no fill written (a change fixes do not name: ?)
+            return "left missing" if self.kind == "change" else "removed, left missing"
         return f"{self.size_mm:.1f} mm"
 
     def as_dict(self) -> dict:
@@ -380,6 +380,32 @@ def template(original, found: list[MarkerChange], take: str = "", output: str = 
     return doc
 
 
+def same_samples(chosen: Mapping[str, str], found: list[MarkerChange]) -> dict:
+    """``chosen`` with each id of kind ``change`` renamed to the change of ``found`` on the same marker and frames,
+    and each id of ``found``'s ``change`` rows likewise from the fix a decisions file names there.
+
+    Before 0.17.0 a spike removed beside a gap left missing was in no fix, so its change was ``change:M:A-B``
+    ("changed by the cleaning"); a cleaning now names it ``spike:M:A-B``. The cleaning's digest
+    (:func:`cleaning_digest`) is of the samples alone, so it matches both: a decisions file made from a 0.16.0
+    report is honoured on a new cleaning, and a new file on a 0.16.0 record, as the same samples' decision. Any
+    other unknown id is left for :func:`check` to refuse.
+    """
+    ids = {c.id for c in found}
+    where: dict[tuple, list[str]] = {}
+    for c in found:
+        where.setdefault((c.marker, c.first, c.last), []).append(c.id)
+    out = {}
+    for key, choice in chosen.items():
+        kind, _, rest = key.partition(":")
+        marker, _, frames = rest.rpartition(":")
+        first, _, last = frames.partition("-")
+        same = where.get((marker, int(first), int(last)), []) if first.isdigit() and last.isdigit() else []
+        if key not in ids and len(same) == 1 and same[0] not in chosen and "change" in (kind, same[0].partition(":")[0]):
+            key = same[0]
+        out[key] = choice
+    return out
+
+
 def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fresh: bool = False,
           option: str = RECORD_FLAG) -> dict:
     """The choices of ``doc`` (:func:`~mocapkit.cleaning.decisions.read_decisions`) checked against this capture
@@ -400,6 +426,7 @@ def check(doc: dict, path, original, cleaned=None, fixes=(), *, request=None, fr
         raise MocapFormatError(path, f"made on another cleaning than {'this new one' if fresh else 'this record'}: "
                                      f"{diff or 'its changed samples differ'}; apply them to the reviewed samples: "
                                      f"{want}")
+    chosen = same_samples(chosen, changes(original, cleaned, fixes))
     try:
         accepted_samples(original, cleaned, fixes, chosen)
     except ValueError as exc:
