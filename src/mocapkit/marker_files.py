@@ -19,7 +19,7 @@ from typing import Sequence
 from .batch_decided import is_own_record, stamp_decided
 from .errors import MocapError
 
-__all__ = ["clean_marker_file", "marker_request", "joint_angle_options", "refuse_marker_options"]
+__all__ = ["clean_marker_file", "the_input", "marker_request", "joint_angle_options", "refuse_marker_options"]
 
 
 def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
@@ -68,6 +68,23 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
                          f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
 
 
+def the_input(inp, out, original, output) -> bool:
+    """Whether the capture ``output`` written to ``out`` is the file ``inp`` itself: the same format (suffix) and
+    not one sample changed (:func:`~mocapkit.cleaning.markers.decisions.differs`: position, residual or camera
+    mask), as in review mode (``--steps detect``), with every change rejected, or for a capture with nothing to
+    clean. :func:`clean_marker_file` then writes ``inp``'s bytes: a C3D written anew is not its input (ezc3d lays
+    out the parameter section its own way, and a file that states no length unit would gain POINT:UNITS), while
+    the guides promise the input file back. ``original``: the capture read from ``inp``."""
+    from .cleaning.markers.decisions import differs
+
+    if Path(inp).suffix.lower() != Path(out).suffix.lower():
+        return False
+    if output is original:
+        return True
+    return (tuple(output.labels) == tuple(original.labels) and output.num_frames == original.num_frames
+            and not differs(original, output).any())
+
+
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
                       decisions=None, record=None, review: bool = False, keep_modelled: bool = False,
@@ -78,7 +95,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     marker viewer with the accept/reject list, per-marker PNG), ``out`` written like the input
     (``save_markers(..., like=input)``: a C3D keeps its parameters and
     analogs, and a gap it stored as exact (0, 0, 0) that the cleaning left
-    missing comes back as it stored it) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
+    missing comes back as it stored it; where no sample changed, in the input's
+    format, ``out`` is the input's bytes: :func:`the_input`) and the ``.clean.npz`` record last. ``max_gap_s``, ``max_error_mm``: as for
     :func:`~mocapkit.cleaning.markers.clean_markers`. ``decisions``: a decisions file
     (:mod:`mocapkit.cleaning.markers.decisions`): ``out`` then holds only the changes it accepts, every other
     sample the input's; ``record``: the ``.clean.npz`` of an earlier run on this capture, reused instead of
@@ -101,7 +119,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     from .cleaning.decided import apply_command
     from .cleaning.markers import decisions as mdec
     from .cleaning.pipeline import clean_path
-    from .io import MARKER_FORMATS, check_keep_modelled, load_markers, save_markers, suffix_kind
+    from .io import MARKER_FORMATS, atomic_write, check_keep_modelled, load_markers, save_markers, suffix_kind
     from .io.outputs import check_outputs, file_facts, input_facts, removed_on_failure
     from .io.takes import file_first_frame
 
@@ -148,8 +166,12 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             from .report.markers import plot_marker_fixes
 
             plot_marker_fixes(png, given, title=f"{inp.name}: before (grey) and after")
-        save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
-                     filled=given.fill_mask, overwrite=True)  # out: checked by the output guard before the work
+        if the_input(inp, out, ms, given.output):  # a review, every change rejected, nothing to change
+            with atomic_write(out, "wb") as fh:
+                fh.write(inp.read_bytes())
+        else:
+            save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
+                         filled=given.fill_mask, overwrite=True)  # out: checked by the output guard before the work
         if reuse and chosen is not None and is_own_record(record, out):  # decided in place: a later batch keeps OUT
             stamp_decided(record, decisions, out)
         if not reuse:  # last: the completion marker

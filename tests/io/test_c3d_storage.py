@@ -93,3 +93,25 @@ def test_a_c3d_that_states_no_unit_is_written_with_one_and_a_note_says_so(shared
     back = read_c3d(save_markers(take, out))
     assert back.units == "mm" and back.units_from == "file"  # what the note says is what the file states
     assert not any("POINT:UNITS" in n for n in marker_notes(back, tmp_path / "again.c3d", out))  # stated: no note
+
+
+def test_a_review_gives_the_c3d_back_byte_for_byte(tmp_path):
+    # Trial T2: `clean X.c3d --steps detect` (and every change rejected) wrote the capture anew with ezc3d: another
+    # parameter section and header, where the guides promise the input file back.
+    from mocapkit.marker_files import clean_marker_file
+
+    path = Path(__file__).resolve().parents[1] / "data" / "85_02.c3d"  # 85_02_det.c3d differed from byte 19
+    out = tmp_path / "review.c3d"
+    clean_marker_file(path, out, review=True)
+    assert out.read_bytes() == path.read_bytes()
+
+
+def test_an_output_that_is_the_input_says_no_unit_was_written(shared_data, tmp_path):
+    # dynamic.c3d states no POINT:UNITS: its review output is its own bytes, so no note may say the unit was written
+    import shutil
+
+    from mocapkit.io import load_markers, marker_notes
+
+    path = shared_data / "c3d_markers" / "dynamic.c3d"
+    out = Path(shutil.copyfile(path, tmp_path / "out.c3d"))
+    assert not any("POINT:UNITS" in n for n in marker_notes(load_markers(path), out, path))

@@ -257,7 +257,7 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
                          f"{inp if inp is not None else 'the input'} stores them: a sample the cleaning changed or "
                          f"filled is rounded to the nearest step ({step / 2:.2g} {markers.units} at most), every "
                          "other one is the input's own number")
-    if kind == "c3d" and markers.units_from != "file":
+    if kind == "c3d" and markers.units_from != "file" and not _is_input(path, inp):  # OUT the input: nothing added
         notes.append(_stated_unit_note(markers, path, inp))
     if kind == "c3d" and (source is None or source.format != "c3d"):
         note = _float32_note(markers, path, inp)
@@ -278,6 +278,17 @@ def marker_notes(markers: MarkerSet, path, inp=None, *, keep_modelled: bool = Fa
         notes.append(f"{path}: not written, as {fmt} cannot hold them: the input's {what}"
                      + (f" ({keep})" if keep else ""))
     return notes
+
+
+def _is_input(path, inp) -> bool:
+    """Whether the file written at ``path`` is the input ``inp``'s bytes (a marker cleaning that changed no sample
+    gives the input file back: :func:`mocapkit.marker_files.the_input`)."""
+    import filecmp
+
+    try:
+        return inp is not None and filecmp.cmp(inp, path, shallow=False)
+    except OSError:
+        return False
 
 
 def _stated_unit_note(markers: MarkerSet, path: Path, inp) -> str:
