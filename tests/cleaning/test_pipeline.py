@@ -14,6 +14,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
 from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_direction, noise_level, noisy_cells
 from mocapkit.errors import MocapError, MocapFormatError
+from tests.cleaning.ssa.helpers import twin_of
 from tests.shared import unknown_rig
 
 
@@ -221,7 +222,7 @@ def test_context_is_used():
 def test_drifts_are_repaired_only_when_asked_for_against_a_repeating_context():
     """A smooth 35 degree drift of one knee, the take's own twin as context: repaired with drifts=True only."""
     m = mocapkit.load(samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
-    twin = dataclasses.replace(m, name="twin")
+    twin = twin_of(m)
     bad, mask, records = corrupt.smooth_drifts(m, n_drifts=1, duration_s=(1.0, 1.0), seed=0, joints=["ltibia"])
     j = m.skeleton.index("ltibia")
     off = clean(bad, [twin], steps=("detect", "repair"))
@@ -348,7 +349,7 @@ def test_clean_with_drifts_puts_every_detection_array_back_at_the_take_frames():
     """With a calibration pose left out of the analysis, the drift rule's evidence (``Detection.change``) is put
     back at the take's frames like the rest, so the detection can be flagged again at another threshold."""
     m = mocapkit.load(TEST_DATA / "cmu_01_01_start.bvh")
-    res = clean(m, [dataclasses.replace(m, name="twin")], steps=("detect",), drifts=True)
+    res = clean(m, [twin_of(m)], steps=("detect",), drifts=True)
     det = res.detection
     assert res.params["analysed"] == [1, m.num_frames]
     assert det.change.shape == det.consistency.shape == (m.num_frames, m.num_joints)

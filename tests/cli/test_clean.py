@@ -18,6 +18,7 @@ import pytest
 
 import mocapkit
 from mocapkit import corrupt, samples
+from tests.cleaning.ssa.helpers import twin_of
 from tests.cli import helpers
 from mocapkit.cleaning.decisions import changes
 from mocapkit.cleaning.pipeline import CleanResult
@@ -412,7 +413,7 @@ def test_clean_batch_drifts_flags_a_smooth_drift_only_when_asked(tmp_path, capsy
     src, ctx = tmp_path / "in", tmp_path / "ctx.npz"
     src.mkdir()
     mocapkit.save(bad, src / "sneak.npz")
-    mocapkit.save(dataclasses.replace(m, name="twin"), ctx)  # another take of the same motion
+    mocapkit.save(twin_of(m), ctx)  # another take of the same motion (not of the take's length: not the input itself)
     records = {}
     for name, extra in (("off", []), ("on", ["--drifts"])):
         out = tmp_path / name

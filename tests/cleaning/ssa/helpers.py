@@ -61,3 +61,13 @@ def with_midpoints(path: Path, after, out: Path, decimals: int) -> Path:
     head = re.sub(r"Frames:\s*\d+", f"Frames: {len(rows)}", head)
     out.write_text(head + "Frame Time:" + "\n".join([lines[0]] + rows) + "\n")
     return out
+
+
+def twin_of(motion, name="twin"):
+    """``motion``'s twin as a context clip that repeats it: its frames and its last quarter second again. A clip of
+    the take's own length holding its samples, clean or not, is the input itself and left out of a context
+    (:func:`mocapkit.cleaning.ssa.texture.own_share`), whatever its name; a quarter second longer, it is another
+    clip at any rate a context is kept at (at 24 fps two frames more at 120 fps are the same length)."""
+    from mocapkit.motion import concatenate
+
+    return concatenate([motion, motion[-int(np.ceil(0.25 * motion.fps)):]], name=name)

@@ -43,7 +43,8 @@ def test_injected_flip_is_flagged_on_its_joint_and_not_its_neighbours(walk, flip
 
 def test_twin_context_reproduces_the_clip(walk):
     """With the clip's exact twin as context and K = 1, every word's neighbour is itself: no digression."""
-    twin = dataclasses.replace(walk, name="twin")
+    # two frames longer: a clip of the take's length holding its samples is the input itself, left out by content
+    twin = concatenate([walk, walk[-2:]], name="twin")
     det = ssa.detect(walk, [twin], k=1)
     d = np.degrees(det.digression[:, det.analysed])
     assert np.nanmedian(d) < 0.5
@@ -119,6 +120,29 @@ def test_context_clip_equal_to_the_input_is_left_out(walk):
     det = ssa.detect(walk[:400], [walk[:400]])
     assert any("the input itself" in n for n in det.notes)
     assert len(det.context_clips) == 1
+
+
+def test_the_input_itself_is_told_by_its_samples_not_its_name():
+    """Trial T1: a renamed corrupted copy of a default-context take was judged against the context's clean copy of
+    itself (HDM_bd_grabHighR_001_120: 162 changed cells under its own name, 137 renamed), and a take sharing a clip's
+    name and length would drop that clip. The bundled default context's HDM_bk_sneak2StepsLStart_005_120 and two
+    clips of 19 frames at 24 fps (actors bd and dg, rotateArmsBothBackward1Reps)."""
+    from mocapkit.cleaning.ssa.texture import context_motions
+    from mocapkit.context import default_context
+
+    db = default_context()
+    clips = [db.clip(i) for i in range(db.num_clips)]
+    take = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    broken = corrupt.real_errors(take, seed=1)[0]
+    for m in (take, dataclasses.replace(take, name="my_take"), dataclasses.replace(broken, name="my_take")):
+        kept, notes = context_motions(m, clips)
+        assert [c.name for c in clips if c not in kept] == ["HDM_bk_sneak2StepsLStart_005_120"], m.name
+        assert any("'HDM_bk_sneak2StepsLStart_005_120' is the input itself" in n for n in notes)
+    bd, dg = (next(c for c in clips if c.name == f"HDM_{a}_rotateArmsBothBackward1Reps_{n}_120")
+              for a, n in (("bd", "001"), ("dg", "009")))
+    assert bd.num_frames == dg.num_frames
+    kept, notes = context_motions(dataclasses.replace(dg, name=bd.name), clips)  # another take, the same name
+    assert bd in kept and dg not in kept and len(kept) == len(clips) - 1
 
 
 def test_small_context_and_prefilter_find_the_error():

@@ -10,6 +10,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, excursions, group_agreement, group_offset_change,
                                          other_joints_level, smooth_drift_flags)
+from tests.cleaning.ssa.helpers import twin_of
 
 
 def slow_agreement(d, analysed):
@@ -113,7 +114,7 @@ def drifted(walk):
 def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(walk, drifted):
     """The walk's twin as context: the neighbours match every joint, so the drifting elbow alone digresses."""
     bad, mask, records = drifted
-    twin = dataclasses.replace(walk, name="twin")
+    twin = twin_of(walk)
     (r,) = records
     j = walk.skeleton.index(r.joint)
     assert not ssa.discontinuities(bad)[:, j].any()  # no break: confirmation alone never flags it
@@ -132,7 +133,7 @@ def test_detect_flags_a_smooth_drift_against_a_context_that_repeats_the_motion(w
 
 def test_detection_keeps_the_drift_evidence_through_save_and_load(walk, drifted, tmp_path):
     bad, _, _ = drifted
-    det = ssa.detect(bad, [dataclasses.replace(walk, name="twin")], drift=True)
+    det = ssa.detect(bad, [twin_of(walk)], drift=True)
     back = ssa.Detection.load(det.save(tmp_path / "d.npz"))
     assert np.array_equal(back.change, det.change, equal_nan=True)
     assert np.array_equal(back.drifts(), det.drifts()) and det.drifts().any()
@@ -396,7 +397,7 @@ def test_detect_a_joint_held_off_its_neighbours_for_most_of_the_take_is_a_style_
     """The walk with one elbow carried 30 deg off from 1.5 s to 1.5 s before the end (eased in and out over
     0.5 s), against its twin: the rule reading the angle alone calls it a drift; with the joint's change from
     the offset it holds (the default) it is the performer's carriage."""
-    twin = dataclasses.replace(walk, name="twin")
+    twin = twin_of(walk)
     j = walk.skeleton.index("LeftElbow")
     F, fps = walk.num_frames, walk.fps
     t = np.arange(F) / fps
@@ -420,7 +421,7 @@ def test_detect_the_drift_evidence_is_the_change_alone(walk, drifted, tmp_path):
     the drift's height: the angle ratio (``consistency``) falls there while the change from the held offset does
     not. The evidence is the change alone: the angle ratio no longer caps it."""
     bad, mask, _ = drifted
-    det = ssa.detect(bad, [dataclasses.replace(walk, name="twin")], drift=True)
+    det = ssa.detect(bad, [twin_of(walk)], drift=True)
     assert det.drifts().any()
     near = dataclasses.replace(det, consistency=np.where(np.isfinite(det.consistency), 0.0, np.nan))
     assert np.array_equal(near.drifts(), det.drifts())

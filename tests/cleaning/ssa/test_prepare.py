@@ -12,6 +12,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.motion import Motion
+from tests.cleaning.ssa.helpers import twin_of
 
 repair_module = importlib.import_module("mocapkit.cleaning.ssa.repair")  # the package's `repair` is the function
 
@@ -61,7 +62,7 @@ def test_a_saved_detection_is_prepared_again_with_the_same_result(flipped, resam
 
 def test_a_context_is_reused_only_when_it_is_the_one_given_to_detect(flipped, resamples):
     walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
-    context = [dataclasses.replace(walk, name="twin")]
+    context = [twin_of(walk)]
     det = ssa.detect(flipped, context)
     assert resamples == [24.0, 24.0, 24.0]  # informative joints need none; the take, then the take and its context
     del resamples[:]

@@ -9,7 +9,7 @@ import pytest
 import mocapkit
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from tests.cleaning.ssa.helpers import offset_on, turned
+from tests.cleaning.ssa.helpers import offset_on, turned, twin_of
 
 
 def test_repair_changes_only_flagged_cells_and_fixes_the_error(walk, flipped):
@@ -65,7 +65,7 @@ def test_contact_constraint_is_met(walk, flipped):
 def test_repair_refuses_another_context(walk, flipped):
     bad, mask, records, det = flipped
     with pytest.raises(ValueError, match="context"):
-        ssa.repair(bad, det, [dataclasses.replace(walk, name="other")])
+        ssa.repair(bad, det, [twin_of(walk, "other")])
     with pytest.raises(ValueError, match="another clip"):
         ssa.repair(bad[:100], det)
 

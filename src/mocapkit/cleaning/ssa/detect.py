@@ -502,8 +502,10 @@ def detect(
     context : None, list of Motions, or MotionDatabase
         Where to look for similar words besides the clip itself: None is local
         analysis; related clips (same joints) make a small or large context.
-        A context clip with the input's name and length is the input itself and
-        is left out.
+        A context clip whose samples are mostly the input's (more than half of
+        its cells, :func:`~mocapkit.cleaning.ssa.texture.own_share`: the take
+        itself, renamed or with errors) is the input itself and is left out,
+        whatever the names.
     threshold : float
         MDM value above which a cell is flagged (0.5 in the paper).
     params : SSAParams, optional

@@ -42,6 +42,8 @@ __all__ = [
     "palm_standins",
     "left_out_joints",
     "left_out_note",
+    "own_share",
+    "SAME_CELL_DEG",
     "STILL_RAD",
     "HAND_DETAIL_ROLES",
     "facing_aligned",
@@ -507,9 +509,44 @@ def upsample_quaternions(q: np.ndarray, fps_from: float, n_out: int, fps_to: flo
 
 
 
+SAME_CELL_DEG = 0.01
+"""A context clip's rotation within this many degrees of the take's (resampled to the clip's rate) is the take's own
+sample: a database keeps its clips as float32 (the bundled default context's copy of HDM_bd_grabHighR_001_120 is
+within 5e-06 deg of the take resampled to its 24 fps)."""
+
+
+def own_share(motion: Motion, clip: Motion, resampled: dict | None = None) -> float:
+    """The share (0-1) of ``clip``'s cells (frame x joint rotations) that are ``motion``'s own samples: ``motion``
+    resampled to the clip's rate (:meth:`Motion.resample`, as :meth:`MotionDatabase.build` makes its clips), with
+    the clip's frame count, within :data:`SAME_CELL_DEG`, over the joints the clip turns (one it never turns is
+    alike in any take: HDM05's hip joints have no rotation channels); 0 where the lengths differ. ``resampled``: a cache of
+    ``motion`` per rate. A corrupted copy of a clip's take shares most of its cells (the errors touch a few joints
+    over some frames); another take, even of the same length and name, next to none."""
+    if abs(clip.duration - motion.duration) >= 1.5 / min(clip.fps, motion.fps):
+        return 0.0
+    cache = {} if resampled is None else resampled
+    if clip.fps not in cache:
+        cache[clip.fps] = motion.resample(clip.fps)
+    m = cache[clip.fps]
+    if m.num_frames != clip.num_frames or m.num_joints != clip.num_joints or clip.num_frames == 0:
+        return 0.0
+    q = np.asarray(clip.rotations, dtype=np.float64)
+    near = np.cos(np.radians(SAME_CELL_DEG) / 2)
+    with np.errstate(invalid="ignore"):
+        same = np.abs(np.sum(np.asarray(m.rotations, dtype=np.float64) * q, -1)) >= near  # NaN: not the take's
+        moving = ~np.all(np.abs(np.sum(q * q[:1], -1)) >= near, axis=0)
+    # joints the clip never turns (no rotation channels, fingers held) are alike in every take of the skeleton
+    return float(np.mean(same[:, moving] if moving.any() else same))
+
+
 def context_motions(motion: Motion, context, params: SSAParams | None = None) -> tuple[list[Motion], list[str]]:
     """Context as a list of Motions with the input's joints; clips that are the input itself are dropped, and with
-    ``params``, clips too coarse for motion words (:func:`too_coarse`: one note names them and says why)."""
+    ``params``, clips too coarse for motion words (:func:`too_coarse`: one note names them and says why).
+
+    A clip is the input itself by its content, not its name (a free text): more than half of its cells are the
+    take's own samples (:func:`own_share`), so that a renamed copy of a context take, clean or with errors, is not
+    judged against its own clean copy, and another take that shares a clip's name and length is kept. The note
+    says which clip was left out, and the take's name where it differs."""
     notes, coarse = [], []
     if context is None:
         return [], notes
@@ -521,7 +558,7 @@ def context_motions(motion: Motion, context, params: SSAParams | None = None) ->
         motions = [context]
     else:
         motions = list(context)
-    out = []
+    out, resampled = [], {}
     names = motion.skeleton.joint_names
     for c in motions:
         if not isinstance(c, Motion):
@@ -533,8 +570,11 @@ def context_motions(motion: Motion, context, params: SSAParams | None = None) ->
                 f"{next(((a, b) for a, b in zip(c.skeleton.joint_names, names) if a != b), ('-', '-'))}); "
                 "retarget it first (MotionDatabase.build(joint_map=...))"
             )
-        if c.name and c.name == motion.name and abs(c.duration - motion.duration) < 1.5 / min(c.fps, motion.fps):
-            notes.append(f"context clip {c.name!r} is the input itself; left out")
+        share = own_share(motion, c, resampled)
+        if share > 0.5:
+            named = "" if c.name == motion.name else f", named {motion.name or 'nothing'!r} here"
+            notes.append(f"context clip {c.name!r} is the input itself ({int(share * 100)}% of its samples are the "
+                         f"input's{named}); left out")
             continue
         if params is not None and too_coarse(c.fps, params):
             coarse.append(c)
