@@ -92,8 +92,9 @@ class MarkerFix:
     from a record written before 0.16.0 (read as "no plausible fill").
     ``miss_mm``: for a spike left missing (no fill to measure ``size_mm`` from, so NaN), how far its removed
     samples lay off the straight line through the two seen samples beside the run (the one-sided in-time
-    prediction of :mod:`~mocapkit.cleaning.markers.edges`; the nearer side where both are seen): the distance
-    that made them a spike; NaN where neither side has two seen samples, or from a record written before 0.17.0.
+    prediction of :mod:`~mocapkit.cleaning.markers.edges`, the test that finds a spike beside a gap; the nearer
+    side where both are seen): how far off its path the marker jumped; NaN where neither side has two seen
+    samples, or from a record written before 0.17.0.
     """
 
     marker: str
@@ -164,10 +165,12 @@ class MarkerFix:
         if self.kind == "coincident":
             return (f"at the same position as {self.other} ({self.size_mm:.1f} mm apart at most): one is a duplicate "
                     f"label, which one cannot be told ({self.note}): both left as recorded")
-        off = (f"; removed samples up to {self.miss_mm:.1f} mm off the line through the seen samples beside them "
-               "(what made them a spike)" if self.kind == "spike" and np.isfinite(self.miss_mm) else "")
+        off = (f"; removed samples up to {self.miss_mm:.1f} mm off the line through the seen samples beside them"
+               if self.kind == "spike" and np.isfinite(self.miss_mm) else "")
         if self.too_long:
             return f"{self.seconds:.2f} s: left missing: {self.note}{off}"
+        if self.note == NOT_ASKED:
+            return f"removed: left missing: {self.note}{off}"
         if self.note:
             return f"{self.fill_text or 'removed'}: left missing: no plausible fill ({self.note}){off}"
         what = {"gap": "fill up to {} mm off the straight line between the gap's ends" if self.ends != 1 else
@@ -418,6 +421,9 @@ class MarkerCleanResult:
         return path
 
 
+NOT_ASKED = "beside a gap, which the gaps step (not asked for) does not fill"
+"""Why a spike removed beside a gap is left missing when the steps leave gaps alone (``steps`` without "gaps")."""
+
 _REMOVED = {"spike": "a spike removed, ", "duplicate": "a duplicate label removed, ",
             "foreign": "another point under its label removed, "}
 """How a run left missing whose recorded samples were removed begins in the summary (a gap's begins with its duration)."""
@@ -475,7 +481,7 @@ def _left_spikes(spikes: np.ndarray, recorded: np.ndarray, seen: np.ndarray, a: 
                  unit_mm: float, fps: float, note: str) -> list[MarkerFix]:
     """The spike fixes inside a gap ``a <= f < b`` of one marker that was left missing: runs removed beside the gap
     (:mod:`~mocapkit.cleaning.markers.edges`) are removed recorded samples, a change, though no fill replaced
-    them; size NaN (left missing), ``miss_mm`` the distance that made them a spike (:func:`_line_miss`), ``note``
+    them; size NaN (left missing), ``miss_mm`` how far they lay off the marker's path (:func:`_line_miss`), ``note``
     why no fill was written, ``seconds`` the run's duration at ``fps``. ``spikes`` (F,) its spike mask;
     ``recorded``, ``seen`` (F, 3) as for :func:`_line_miss`."""
     d = np.diff(np.concatenate([[0], spikes[a:b].astype(np.int8), [0]]))
@@ -592,7 +598,7 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
                     unit_mm, markers.fps)
             if not is_spike and "gaps" not in steps and not np.any(dups[run, r.marker]):
                 # spikes removed beside a gap the gaps step does not fill: removed recorded samples, a change
-                fixes.extend(_left_spikes(*edge, "beside a gap, and the gaps step was not asked for"))
+                fixes.extend(_left_spikes(*edge, NOT_ASKED))
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
