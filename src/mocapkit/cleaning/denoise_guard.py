@@ -44,9 +44,9 @@ from ..motion import Motion
 from ..words import plural
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
-           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guarded", "SIGMAS", "MARGIN_DEG",
-           "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps", "window_step_table", "jump_steps", "motion_speed",
-           "guarded_take"]
+           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guard", "Guarded", "guarded",
+           "guarded_take", "SIGMAS", "MARGIN_DEG", "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps",
+           "window_step_table", "jump_steps", "motion_speed"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
 MARGIN_DEG = 3.0  # added to the bound: what a smoother may move a clean cell by (a capture's own jitter)
@@ -389,11 +389,45 @@ def _table_columns(q: np.ndarray, cols: np.ndarray, joints: np.ndarray, memo: di
     return np.stack([made[int(j)] for j in joints], axis=-1)
 
 
-def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str, str]:
+@dataclasses.dataclass(frozen=True)
+class Guarded:
+    """What :func:`guard` made of a denoise: ``motion`` denoised, the run's ``method`` and ``note`` (a fallback, a
+    licence: the run's own words), and ``kept`` (F, J) bool, the cells kept as they came (bit-identical to the
+    input), which :attr:`said` names ("" for none); ``measured``: :func:`guarded_take`'s line naming the filled
+    cells whose measured channels were kept ("" for none, or not asked)."""
+
+    motion: Motion
+    method: str
+    note: str
+    kept: np.ndarray
+    measured: str = ""
+
+    @property
+    def said(self) -> str:
+        """The line naming the kept cells (count, joints, frames), "" when none is kept."""
+        return _kept_note(self.kept, self.motion) if self.kept.any() else ""
+
+    @property
+    def lines(self) -> list[str]:
+        """Its lines, each one on its own (``clean`` says each as a note of its own): the run's note, :attr:`said`,
+        :attr:`measured`, those that say something."""
+        return [x for x in (self.note, self.said, self.measured) if x]
+
+    def as_tuple(self) -> tuple[Motion, str, str]:
+        """``(motion, method, note)``, :attr:`lines` joined by "; " into the one note the ``denoise`` command,
+        :func:`guarded` and :func:`~mocapkit.cleaning.whole_take.denoise_take` give."""
+        return self.motion, self.method, "; ".join(self.lines)
+
+
+def guard(motion: Motion, cells: np.ndarray | None, run, keep: np.ndarray | None = None) -> Guarded:
     """Denoise ``motion`` by ``run(motion, cells) -> (motion, method, note)`` (only ``cells`` (F, J), None: every
     non-root joint), keeping as they came the cells :func:`kept_cells` finds (a flip, held, a run; module docstring),
-    read around by a second run. Returns ``run``'s ``(motion, method, note)``, the note saying the kept cells when
-    there are any; every kept cell is bit-identical to the input."""
+    read around by a second run; :class:`Guarded` says them.
+
+    ``keep`` (F, J) bool: cells kept as they came whatever this take's judgement, read around as the ones found are:
+    ``clean`` denoises again after its repair, and the cells its first denoise kept are kept in the take it writes
+    (a judgement made afresh on the repaired take let the denoiser move cells it had said were kept as they came:
+    a Bandai punch at 0.3 noise, Head frames 249-257, moved by up to 25 deg)."""
     F, J = motion.num_frames, motion.num_joints
     judged = np.zeros((F, J), dtype=bool)
     if cells is None:
@@ -406,37 +440,47 @@ def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str,
     std[joints] = noise_std(motion.rotations[:, joints], judged[:, joints])
     memo: dict = {}  # and the take's window steps
     kept = kept_cells(motion.rotations, out.rotations, judged, std, memo)
+    if keep is not None:
+        kept |= np.asarray(keep, dtype=bool) & judged
     if not kept.any():
-        return out, method, note
+        return Guarded(out, method, note, kept)
     around = dataclasses.replace(motion, rotations=np.where(kept[..., None], np.nan, motion.rotations))
     out, method, note = run(around, judged & ~kept)
     kept |= kept_cells(motion.rotations, out.rotations, judged, std, memo)
     rot = np.where(kept[..., None], motion.rotations, out.rotations)
-    said = _kept_note(kept, motion)
-    return dataclasses.replace(out, rotations=rot), method, f"{note}; {said}" if note else said
+    return Guarded(dataclasses.replace(out, rotations=rot), method, note, kept)
 
 
-def guarded_take(motion: Motion, cells: np.ndarray | None, run, *, zeros=None,
-                 measured: bool = True) -> tuple[Motion, str, str]:
+def guarded(motion: Motion, cells: np.ndarray | None, run) -> tuple[Motion, str, str]:
+    """:func:`guard`'s ``(motion, method, note)``, the note saying the kept cells when there are any; every kept
+    cell is bit-identical to the input."""
+    return guard(motion, cells, run).as_tuple()
+
+
+def guarded_take(motion: Motion, cells: np.ndarray | None, run, *, zeros=None, measured: bool = True,
+                 keep: np.ndarray | None = None) -> Guarded:
     """The denoise of a take that ``mocapkit denoise``, ``clean``'s denoise step
-    (:func:`mocapkit.cleaning.whole_take.denoise_take`) and :func:`mocapkit.cleaning.deep.denoise` share: ``run``
-    (as for :func:`guarded`) under :func:`guarded`, with the take's channels written as 0 where the capture lost
-    data (:func:`~mocapkit.cleaning.zeros.find_zeros`; ``zeros``: its result when the caller has it) missing to
-    ``run`` and back as written, and a filled cell's measured channels kept where its missing ones explain the
-    denoise (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`; ``measured`` False: left to a caller
-    that has the whole take of a part it denoises). Returns ``(motion, method, note)``, the note saying the cells
-    kept as they came and the measured channels kept; every kept cell is bit-identical to the input."""
+    (:func:`mocapkit.cleaning.whole_take.denoise_guarded`, :func:`~mocapkit.cleaning.whole_take.denoise_take`) and
+    :func:`mocapkit.cleaning.deep.denoise` share: ``run`` (as for :func:`guard`) under :func:`guard` (``keep`` passed
+    on: ``clean``'s denoise after its repair keeps the cells its first denoise kept), with the take's channels
+    written as 0 where the capture lost data (:func:`~mocapkit.cleaning.zeros.find_zeros`; ``zeros``: its result
+    when the caller has it) missing to ``run`` and back as written, and a filled cell's measured channels kept where
+    its missing ones explain the denoise (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`, said in
+    :attr:`Guarded.measured`; ``measured`` False: left to a caller that has the whole take of a part it denoises).
+    Returns the :class:`Guarded`; every kept cell is bit-identical to the input."""
     from .measured import keep_measured_in_denoise, kept_note
     from .zeros import as_missing, find_zeros
 
     zc, runs, zf = find_zeros(motion) if zeros is None else zeros
     src = as_missing(motion, zc, zf) if runs else motion
-    out, method, note = guarded(src, cells, run)
+    done = guard(src, cells, run, keep)
     if runs:  # the lost samples as written; positions, which denoising keeps, as they were
-        rot = np.where(zc[..., None], motion.rotations, out.rotations)
-        out = dataclasses.replace(out, rotations=rot, root_positions=motion.root_positions,
-                                  translations=motion.translations)
+        rot = np.where(zc[..., None], motion.rotations, done.motion.rotations)
+        done = dataclasses.replace(done, motion=dataclasses.replace(
+            done.motion, rotations=rot, root_positions=motion.root_positions, translations=motion.translations))
     if measured:  # a filled cell's measured channels kept where its missing ones explain the denoise
-        out, kept, stood = keep_measured_in_denoise(motion, out)
-        note = "; ".join(x for x in (note, kept_note(kept, motion.skeleton.joint_names, "denoise", stood)) if x)
-    return out, method, note
+        out, kept, stood = keep_measured_in_denoise(motion, done.motion)
+        done = dataclasses.replace(done, motion=out,
+                                   measured=kept_note(kept, motion.skeleton.joint_names, "denoise", stood))
+    return done
+

@@ -149,7 +149,7 @@ from .measured import keep_measured_in_denoise, kept_note
 from .noise_rate import noise_too_coarse
 from .noise_scope import with_body_noise
 from .stutters import find_stutters, stutter_frames
-from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_take, detect_take, differing, fill_take, flagged_in_all_note,
+from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_guarded, detect_take, differing, fill_take, flagged_in_all_note,
                          motion_span, repair_whole, review_whole, take_params, teleports_note, turn_overs_note,
                          with_flips, with_teleports)
 from .zeros import find_zeros
@@ -382,25 +382,36 @@ def _check(motion: Motion) -> None:
         raise MocapError(f"{name}: every joint is missing (NaN) in every frame; nothing to clean")
 
 
-def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, notes: list,
-             zeros) -> tuple[np.ndarray, str, str]:
-    """``(rotations, method, note)``: ``cur``'s (F, J, 4) with the ``noisy`` cells (Fs, J) of frames ``lo .. hi - 1``
-    denoised, a filled cell's measured channels kept where its missing ones reach the denoise
-    (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`: on the whole take, which has the file's rows)."""
+def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, zeros,
+             keep: np.ndarray | None = None) -> tuple[np.ndarray, str, list[str], np.ndarray]:
+    """``(rotations, method, notes, kept)``: ``cur``'s (F, J, 4) with the ``noisy`` cells (Fs, J) of frames
+    ``lo .. hi - 1`` denoised, a filled cell's measured channels kept where its missing ones reach the denoise
+    (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`: on the whole take, which has the file's rows);
+    ``notes`` its lines, each one: the denoiser's own (a fallback, a licence), the cells the guard kept as they came,
+    the measured channels kept; ``kept`` (Fs, J) bool those guarded cells, each kept in the result as ``cur`` has it
+    (:func:`~mocapkit.cleaning.denoise_guard.guard`; ``keep`` (Fs, J): kept whatever the guard finds)."""
     if not noisy.any():
-        return np.array(cur.rotations), "nothing (no joint is noisy)", ""
+        return np.array(cur.rotations), "nothing (no joint is noisy)", [], np.zeros_like(noisy)
     # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies, and the path
     # `mocapkit denoise` takes (whole_take.denoise_take: channels written as 0 left as written)
-    den, method, note = denoise_take(cur[lo:hi], models.get("ebf"), cells=noisy, zeros=zeros, measured=False)
+    done = denoise_guarded(cur[lo:hi], models.get("ebf"), cells=noisy, zeros=zeros, measured=False, keep=keep)
     rot = np.array(cur.rotations)
-    rot[lo:hi] = np.where(noisy[..., None], den.rotations, rot[lo:hi])
+    rot[lo:hi] = np.where(noisy[..., None], done.motion.rotations, rot[lo:hi])
     # measured channels kept here, on the whole take (its rows are the file's), whatever the frames denoised
     kept_m, kept, stood = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
-    rot = kept_m.rotations
-    note = "; ".join(x for x in (note, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)) if x)
-    if note:
-        notes.append(note)
-    return rot, method, note
+    said = [done.note, done.said, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)]
+    return kept_m.rotations, done.method, [x for x in said if x], done.kept
+
+
+def _repaired_kept_note(cells: np.ndarray, names) -> str:
+    """The line saying that of the cells the denoise kept as they came, ``cells`` (F, J) bool are the repair's: kept
+    as the repair made them (changed, by the repair); "" for none. ``names``: the take's joint names."""
+    n = int(np.sum(cells))
+    if not n:
+        return ""
+    joints = ", ".join(names[j] for j in np.flatnonzero(np.any(cells, axis=0)))
+    return (f"of the cells kept as they came, {plural(n, 'cell')} the repair changed ({joints}) "
+            f"{'is' if n == 1 else 'are'} kept as the repair made {'it' if n == 1 else 'them'}")
 
 
 def _context_label(context) -> str:
@@ -587,15 +598,18 @@ def clean(
             # the zeros fill did not fill, in the part's frames (none after fill)
             left = ((zero_cells[lo:hi], zero_runs, zero_frames[lo:hi]) if "fill" not in steps
                     else (np.zeros_like(noisy), (), np.zeros(Fs, dtype=bool)))
-            rot, method, note = _denoise(cur, lo, hi, noisy, models, notes, left)
+            rot, method, den_notes, guarded = _denoise(cur, lo, hi, noisy, models, left)
+            at = len(notes)  # where its lines stand: a denoise after the repair says its own lines there instead
+            notes.extend(den_notes)
             denoised, den_rot = differing(cur.rotations, rot), rot
-            undenoised, redo = cur, (noisy, left)  # repair works on the take as filled, denoised after it
+            # repair works on the take as filled, denoised after it, keeping the cells this denoise kept
+            undenoised, redo = cur, (noisy, left, guarded)
             cur = dataclasses.replace(cur, rotations=rot)
             noise[lo:hi] = sub_noise
             extra = (f"{plural(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
                      f"{plural(int(noisy.any(axis=0).sum()), 'joint')}")
             den_record = StepRecord("denoise", time.perf_counter() - t, int(denoised.sum()), method,
-                                      extra + (f"; {note}" if note else ""))
+                                    "; ".join([extra, *den_notes]))
 
     if "detect" in steps:
         t = time.perf_counter()
@@ -647,10 +661,17 @@ def clean(
                 repair_whole(undenoised, det, context, foot_skate=foot_skate, poses=poses))
         cur, repaired = done.motion, done.changed
         if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
-            rot, _, _ = _denoise(cur, lo, hi, redo[0], models, [], redo[1])
+            # the cells the first denoise kept as they came are kept again: what the record says is what is written
+            # (one the repair changed is kept as the repair made it: denoised alone between kept cells, it was read
+            # with no neighbour, and came out further from the truth than the repair put it: Bandai punch at 0.3)
+            rot, _, again, kept_again = _denoise(cur, lo, hi, redo[0], models, redo[1], keep=redo[2])
+            again += [_repaired_kept_note(kept_again & repaired[lo:hi], cur.skeleton.joint_names)]
+            again = [x for x in again if x]
             denoised = differing(cur.rotations, rot)
             cur = dataclasses.replace(cur, rotations=rot)
-            den_record = dataclasses.replace(den_record, cells=int(denoised.sum()))
+            notes[at:at + len(den_notes)] = again  # the lines of the denoise written, in the first one's place
+            den_record = dataclasses.replace(den_record, cells=int(denoised.sum()),
+                                             note="; ".join([extra, *again]))
         elif redo is not None:
             cur = dataclasses.replace(cur, rotations=np.where(denoised[..., None], den_rot, cur.rotations))
         # the root cells put back: flagged in the record, so a person can undo them

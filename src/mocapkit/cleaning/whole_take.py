@@ -55,12 +55,12 @@ from ..errors import MocapError, SkeletonError
 from ..motion import Motion
 from ..words import plural
 from .calibration import calibration_mask, calibration_poses
-from .denoise_guard import guarded_take
+from .denoise_guard import Guarded, guarded_take
 from .measured import keep_measured, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
-           "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "check_no_zeros", "detect_take", "across_breaks",
+           "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "denoise_guarded", "check_no_zeros", "detect_take", "across_breaks",
            "repair_take", "repair_whole", "TurnOvers", "body_joints", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
            "TakeReview", "review_whole", "teleports_note",
            "with_teleports", "flagged_in_all_note", "changed_cells", "differing", "REVIEW_WHY"]
@@ -206,12 +206,21 @@ def denoise_take(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, o
     said in the note; ``measured`` False leaves that to a caller that has the whole take of a part it denoises).
     ``ebf``: as :func:`resolve_model` takes it; ``options``: as for ``denoise_or_fallback``.
     """
+    return denoise_guarded(motion, ebf, cells=cells, options=options, zeros=zeros, measured=measured).as_tuple()
+
+
+def denoise_guarded(motion: Motion, ebf=None, *, cells: np.ndarray | None = None, options=None, zeros=None,
+                    measured: bool = True, keep: np.ndarray | None = None) -> Guarded:
+    """:func:`denoise_take`'s denoise as the :class:`~mocapkit.cleaning.denoise_guard.Guarded` that says the cells
+    kept as they came (``kept`` (F, J)) apart from the denoiser's own note (a fallback, a licence) and the measured
+    channels kept (:func:`~mocapkit.cleaning.denoise_guard.guarded_take`); ``keep`` (F, J) bool: cells kept as they
+    came whatever the guard finds (``clean``'s denoise after its repair keeps those its first denoise kept)."""
     from . import deep  # torch: only once there is something to denoise
 
     ebf, label = resolve_model(ebf)
     return guarded_take(motion, cells, lambda m, c: deep.denoise_or_fallback(m, ebf, cells=c, label=label,
                                                                              options=options),
-                        zeros=zeros, measured=measured)
+                        zeros=zeros, measured=measured, keep=keep)
 
 
 def check_no_zeros(motion: Motion, runs=None, span: tuple[int, int] | None = None) -> None:

@@ -641,7 +641,8 @@ def denoise(motion: Motion, model=None, cells: np.ndarray | None = None, *, guar
         return _denoise(motion, sv, cells)
     from ..denoise_guard import guarded_take
 
-    out, _, note = guarded_take(motion, cells, lambda m, c: (_denoise(m, serving(m, model, "ebf"), c), "", ""))
+    out, _, note = guarded_take(motion, cells,
+                                lambda m, c: (_denoise(m, serving(m, model, "ebf"), c), "", "")).as_tuple()
     if note:
         import warnings
 
