@@ -46,6 +46,7 @@ from .joint_spread import joint_rotation_spread, noise_spread
 from .mirroring import mirror_for_rig
 from .markerset import MarkerSet
 from .motion import Motion, bone_moving_joints, find_joint, mirror_pairs, unit_scale_cm
+from .words import frame_span
 
 __all__ = [
     "angular_noise",
@@ -584,7 +585,7 @@ def describe_error(record, original: Motion, corrupted: Motion) -> str:
     start, end = int(r["start"]), int(r["end"])
     n = end - start
     what = f"{r['kind']}: {r['joint']}" + (f" with {r['partner']}" if r.get("partner") else "")
-    frames = f"frame {start}" if n == 1 else f"frames {start}-{end - 1}"
+    frames = frame_span(start, end - 1)
     line = f"{what}, {frames} ({n} frame{'s' if n != 1 else ''}, {n / original.fps:.2f} s)"
     j = original.skeleton.index(r["joint"])
     a, b = original.rotations[start:end, j], corrupted.rotations[start:end, j]

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Iterable
 
-__all__ = ["plural", "listed"]
+__all__ = ["plural", "listed", "frame_span"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -23,3 +23,13 @@ def listed(items: Iterable) -> str:
     """``items`` as a person lists them: ``"A"``, ``"A and B"``, ``"A, B and C"`` (``""`` for none)."""
     words = [str(i) for i in items]
     return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} and {words[-1]}" if words else ""
+
+
+def frame_span(first: int, last: int, fps: float | None = None) -> str:
+    """Frames ``first`` to ``last`` (inclusive) as a person reads them: ``"frame 255"``, ``"frames 250-252"``, and
+    with ``fps`` each frame's time in seconds: ``"frame 255 (8.50 s)"``, ``"frames 250-252 (8.33-8.40 s)"``. One
+    frame was printed ``"frames 255-255 (8.50-8.50 s)"``; every line naming a run of frames says it this way."""
+    first, last = int(first), int(last)
+    if first == last:
+        return f"frame {first}" + (f" ({first / fps:.2f} s)" if fps else "")
+    return f"frames {first}-{last}" + (f" ({first / fps:.2f}-{last / fps:.2f} s)" if fps else "")

@@ -913,3 +913,20 @@ def test_a_clean_report_says_the_licence_of_the_non_commercial_model_it_used(tmp
     header = page[page.index("<header>"):page.index("</header>")]
     assert "warning:" in header and "CC BY-NC 4.0" in header and "non-commercial use only" in header
     assert any("CC BY-NC 4.0" in w for w in res.warnings)  # the lines `clean` prints as warnings
+
+
+def test_the_summary_counts_in_the_terminal_s_words_singular_for_one(open_page, tmp_path, cleaned_walk):
+    """The header said "44 flagged cells in 1 joints (RThumb)" (a user trial, CMU 131_03): "cells" where the
+    terminal and `info` say "joint samples", and "1 joints". One flagged and changed sample reads in the singular."""
+    corrupted, repaired, det, _ = cleaned_walk
+    flags = np.zeros_like(det.flags)
+    flags[10, 5] = True
+    changed = np.zeros_like(flags)
+    changed[10, 5] = True
+    out = write_report(tmp_path / "one.html", corrupted, repaired, mdm=det.mdm, flags=flags, changed=changed)
+    pg = open_page(out)
+    assert pg.errors == []
+    summary = pg.js("document.getElementById('summary').textContent")
+    name = corrupted.skeleton.joint_names[5]
+    assert f"1 flagged joint sample in 1 joint ({name})" in summary and "1 joint sample changed by the cleaning" in summary
+    assert " cells" not in summary, summary

@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..motion import Motion, find_joint
+from ..words import frame_span
 
 __all__ = ["CalibrationPose", "calibration_poses", "calibration_mask", "pose_kinds"]
 
@@ -78,7 +79,7 @@ class CalibrationPose:
 
     def __str__(self) -> str:
         a, b = self.frames
-        span = f"frame {a}" if b - a == 1 else f"frames {a}-{b - 1}"
+        span = frame_span(a, b - 1)
         extra = f" with {self.t_stop - self.t_start} transition frames" if self.t_stop > self.t_start else ""
         return f"{span}: calibration {self.kind}{extra}, left alone"
 

@@ -41,7 +41,7 @@ import numpy as np
 from .. import rotations as R
 from .runs import true_runs
 from ..motion import Motion
-from ..words import plural
+from ..words import frame_span, plural
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
            "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guard", "Guarded", "guarded",
@@ -336,7 +336,7 @@ def _kept_note(kept: np.ndarray, motion: Motion) -> str:
 
 
 def _frames(f: np.ndarray) -> str:
-    return f"frame {f[0]}" if len(f) == 1 else f"frames {f[0]}-{f[-1]}"
+    return frame_span(f[0], f[-1])
 
 
 def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,

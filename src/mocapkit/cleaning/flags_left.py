@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..words import frame_span
 from .decisions import flag_segments
 from .ssa import LeftRun
 from .ssa.flips import left_from_note
@@ -53,7 +54,7 @@ def flag_outcomes(result) -> list[dict]:
             if kept:
                 r, f0, f1 = kept[0]
                 reason, span = "the repair was not better than the take", (f0, f1)
-                frames = f"frame {f0}" if f0 == f1 else f"frames {f0}-{f1}"
+                frames = frame_span(f0, f1)
                 left = f"changed in part: {frames} left as {'it was' if f0 == f1 else 'they were'}: {reason} ({r.reason})"
         out.append({**seg, "left": left, "left_reason": reason, "left_frames": list(span) if left else []})
     return out

@@ -33,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..motion import Motion
+from ..words import frame_span
 
 __all__ = ["JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
            "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
@@ -70,7 +71,7 @@ class RootEvent:
     review: bool = False
 
     def __str__(self) -> str:
-        frames = f"frame {self.first}" if self.first == self.last else f"frames {self.first}-{self.last}"
+        frames = frame_span(self.first, self.last)
         if self.kind == "teleport":
             where = "on the path between the frames around them"
             what = (f"{frames}: the root ({self.joint}) jumps {self.size_cm:.0f} cm away and back "

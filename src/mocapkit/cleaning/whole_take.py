@@ -503,7 +503,9 @@ def turn_overs(motion: Motion, span: tuple[int, int], leaves=(), *, changed=None
         if f.fixed and changed is not None and (changed[a : b + 1] & cells).any():
             f = dataclasses.replace(f, fixed=False, why="the repair changed its cells")
         elif f.fixed and review:
-            f = dataclasses.replace(f, fixed=False, why=REVIEW_WHY)
+            # a leaf turned back by measured offsets, not a half turn exactly, is said so (ssa.flips.Flip.measured)
+            f = dataclasses.replace(f, fixed=False, why=f"repair would turn it back {f.measured}" if f.measured
+                                    else REVIEW_WHY)
         elif f.fixed:
             full[a : b + 1] |= cells
             rot[a : b + 1] = np.where(cells[..., None], part.rotations[f.first : f.last + 1], rot[a : b + 1])
@@ -575,7 +577,7 @@ def turn_overs_note(lines) -> str:
     (:attr:`TurnOvers.lines`); "" for none."""
     if not lines:
         return ""
-    turned = sum(": turned back exactly" in line for line in lines)
+    turned = sum(": turned back " in line for line in lines)
     return f"{len(lines)} turn-over{'' if len(lines) == 1 else 's'} ({turned} turned back)"
 
 

@@ -56,6 +56,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..motion import Motion
+from ..words import frame_span
 from .ik import contact_segments
 
 __all__ = ["ZeroRun", "find_zeros", "as_missing", "ZERO_TOL", "MIN_RUN", "JUMP_RATIO", "MIN_JUMP_DEG"]
@@ -86,7 +87,7 @@ class ZeroRun:
         """The run in words, without what became of it: ``"LeftHip frames 100-459: channels written as 0 (a
         dropout)"``."""
         a, b = self.first, self.last
-        frames = f"frame {a}" if a == b else f"frames {a}-{b}"
+        frames = frame_span(a, b)
         if not self.joint:
             return f"{frames}: every channel written as 0, the root's position too (a dropout)"
         what = f"{self.channel} written as 0" if self.channel else "channels written as 0"

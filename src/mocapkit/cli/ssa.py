@@ -8,6 +8,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
+from ..words import frame_span
 from .common import (amc_fps_option, asf_option, console, context_option, joint_map_option, listed, read_map, guard, overwrite_option, plural, save_take,
                      unit_option)
 
@@ -141,7 +142,7 @@ def detect(
         console.print(f"  note: {line}")
     for (j, a, b), w in zip(segs[:50], why):
         # the first and last frame's times (frame f is at f / fps, as the report's viewer labels it)
-        console.print(f"  {j:16s} frames {a}-{b - 1} ({a / m.fps:.2f}-{(b - 1) / m.fps:.2f} s): {', '.join(w)}")
+        console.print(f"  {j:16s} {frame_span(a, b - 1, m.fps)}: {', '.join(w)}")
     if len(segs) > 50:
         console.print(f"  ... and {len(segs) - 50} more")
 

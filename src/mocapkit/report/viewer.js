@@ -98,10 +98,11 @@
   (function () {
     var st = D.stats, parts = [];
     parts.push(D.frames + " frames at " + fmt(D.fps) + " fps (" + (D.frames / D.fps).toFixed(2) + " s), " + J + " joints");
-    if (st.flagged !== null) parts.push(st.flagged + " flagged cells in " + st.flaggedJoints.length + " joints" +
+    // the terminal's and `info`'s words: "joint samples", singular for one
+    if (st.flagged !== null) parts.push(plural(st.flagged, "flagged joint sample") + " in " + plural(st.flaggedJoints.length, "joint") +
       (st.flaggedJoints.length ? " (" + st.flaggedJoints.slice(0, 8).join(", ") + (st.flaggedJoints.length > 8 ? ", ..." : "") + ")" : ""));
-    if (st.changed !== null) parts.push(st.changed + " cells changed by the cleaning");
-    if (st.missingOriginal) parts.push(st.missingOriginal + " missing cells in the input");
+    if (st.changed !== null) parts.push(plural(st.changed, "joint sample") + " changed by the cleaning");
+    if (st.missingOriginal) parts.push(plural(st.missingOriginal, "missing joint sample") + " in the input");
     if (UNCHECKED.length) parts.push(UNCHECKED.length + " joint" + (UNCHECKED.length === 1 ? "" : "s") +
       " not analysed by detection (" + UNCHECKED.map(function (j) { return D.names[j]; }).join(", ") + ")");
     // frames no similar motion judged: a stretch with no change there was not checked, not found clean
@@ -109,6 +110,7 @@
     summary.textContent = parts.join("; ") + ".";
     if (N < F) el("p", { "class": "note", id: "downsample-note", text: downsampleNote() }, document.querySelector("header"));
   })();
+  function plural(n, word) { return n + " " + word + (n === 1 ? "" : "s"); }  // words.plural's rule
   function fmt(x) { return Math.abs(x - Math.round(x)) < 1e-9 ? String(Math.round(x)) : x.toFixed(2); }
   function ordinal(n) {
     var t = n % 100, u = n % 10;

@@ -206,3 +206,27 @@ def test_a_helper_bone_beside_the_pelvis_is_not_turned_back_as_a_leaf():
     changed = np.flatnonzero(found.turned.any(axis=0))
     assert changed.tolist() == [rig.index("RThumb")] and np.flatnonzero(found.turned[:, changed[0]]).tolist() == list(
         range(28, 42))
+
+
+def test_a_leaf_turned_back_by_measured_offsets_is_said_as_such_not_exactly(shared_data):
+    """CMU 131_03's RThumb frames 478-481: the line said "turned 180 deg and back (a constant half turn): turned back
+    exactly", but the change was 158-164 deg (the offsets measured at both steps, slerped). Each leaf's line now says
+    what was done: "exactly" only where every cell was turned by a half turn, else the measured range."""
+    import re
+
+    m = mocapkit.load(shared_data / "cmu_bvh" / "131_03.bvh")
+    out, changed, _, flips = turned_back(m, ["RThumb"])
+    j = m.skeleton.index("RThumb")
+    moved = np.degrees(R.geodesic_angle(m.rotations[:, j], out.rotations[:, j]))
+    fixed = [f for f in flips if f.fixed]
+    assert len(fixed) >= 5 and any(f.first == 478 and f.last == 481 for f in fixed)
+    for f in fixed:
+        run, line = moved[f.first : f.last + 1], str(f)
+        if "turned back exactly" in line:
+            assert run.min() > 179.99 and "a constant half turn" in line, line
+        else:
+            lo, hi = map(int, re.search(r"\((\d+)-(\d+) deg, slerped", line).groups())
+            assert (lo, hi) == (round(run.min()), round(run.max())) and run.min() < 179.0, line
+    assert str(next(f for f in fixed if f.first == 478)) == (
+        "RThumb turned about a half turn and back, frames 478-481: turned back by the offsets measured at its two "
+        "steps (158-164 deg, slerped across the run)")

@@ -21,6 +21,7 @@ import torch
 from ... import rigs
 from ... import rotations as R
 from ...errors import LicenceWarning, MocapFormatError, SkeletonError
+from ...words import frame_span
 from ...io import atomic_write
 from ...motion import Motion
 from .channels import ChannelLayout, channel_joints, lerp_fill
@@ -798,7 +799,7 @@ def doubt_note(doubts, what: str = "the gap prior's fill") -> str:
     ..."``."""
     if not doubts:
         return ""
-    said = [f"{j} frames {a}-{b}: {what} departs up to {d:.0f} deg from "
+    said = [f"{j} {frame_span(a, b)}: {what} departs up to {d:.0f} deg from "
             + ("the line between the gap's ends (the" if side is None else
                f"the gap's one seen end (the gap runs to the take's {side}; the")
             + f" channel spreads {sp:.0f} deg over the take's seen frames)" for j, a, b, d, sp, side in doubts[:DOUBT_LINES]]

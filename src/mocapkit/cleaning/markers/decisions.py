@@ -53,7 +53,7 @@ from ..decisions import (ACCEPT, FORMAT, RECORD_FLAG, REJECT, review_mode, check
                          request_difference, take_digest)
 from .clean import MarkerCleanResult, MarkerFix
 from .placement import destinations, relabelled, sources
-from ...words import plural
+from ...words import frame_span, plural
 
 __all__ = ["MarkerChange", "differs", "changes", "accepted_samples", "tied", "TIED_WHY", "tied_lines", "placed",
            "apply", "cleaning_digest",
@@ -96,7 +96,7 @@ class MarkerChange:
 
     def __str__(self) -> str:
         with_ = f" with {self.other}" if self.other and self.kind == "swap" else ""
-        return f"{self.id}: {self.marker} frames {self.first}-{self.last} ({self.kind}{with_}, {self.size_words()})"
+        return f"{self.id}: {self.marker} {frame_span(self.first, self.last)} ({self.kind}{with_}, {self.size_words()})"
 
 
 def differs(original, cleaned) -> np.ndarray:

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import rotations as R
+from ...words import frame_span
 
 __all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
 
@@ -57,6 +58,7 @@ AGREE_DEG = 10.0
 STEP_OK_DEG = 20.0
 #: a joint channel may leave its ASF limits by this much (degrees) more than the take beside the run does
 LIMIT_TOL_DEG = 1.0
+HALF_TURN_DEG = 179.99  # a leaf turned back by at least this everywhere was turned back by a half turn exactly
 
 
 @dataclass(frozen=True)
@@ -64,7 +66,10 @@ class Flip:
     """A turn-over: ``joints`` (names, the chain's top first) turned over frames ``first .. last`` (0-based,
     inclusive); ``kind`` ``"bone"`` (about their own bones, positions unchanged) or ``"leaf"`` (a constant half
     turn of a joint with no joint below); ``fixed`` whether it was turned back, ``why`` why not; ``steps_below``
-    (names) the joints below the chain whose own steps at its two frames were taken away with it."""
+    (names) the joints below the chain whose own steps at its two frames were taken away with it; ``turned_deg``
+    ``(least, most)`` degrees a leaf turned back was turned by over its frames: a half turn exactly where the file's
+    channel jumped by one, else the offsets measured at the two steps, slerped across the run (CMU 131_03's RThumb
+    frames 478-481: 158-164 deg, which the line called "a constant half turn ... turned back exactly")."""
 
     joints: tuple
     first: int
@@ -73,17 +78,30 @@ class Flip:
     fixed: bool
     why: str = ""
     steps_below: tuple = ()
+    turned_deg: tuple = ()
+
+    @property
+    def measured(self) -> str:
+        """How a leaf is turned back where that is not a half turn exactly: ``"by the offsets measured at its two
+        steps (158-164 deg, slerped across the run)"``; "" for a half turn exactly, a chain, or none measured."""
+        if self.kind != "leaf" or not self.turned_deg or self.turned_deg[0] >= HALF_TURN_DEG:
+            return ""
+        lo, hi = (round(x) for x in self.turned_deg)
+        return f"by the offsets measured at its two steps ({lo if lo == hi else f'{lo}-{hi}'} deg, slerped across the run)"
 
     def __str__(self) -> str:
         j = self.joints[0] + (f" (with {', '.join(self.joints[1:])})" if len(self.joints) > 1 else "")
-        frames = f"frames {self.first}-{self.last}" if self.last > self.first else f"frame {self.first}"
-        what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
-                else f"turned 180 deg and back, {frames} (a constant half turn)")
+        frames = frame_span(self.first, self.last)
         below = "".join(f", {n}'s own steps at both ends taken away with it" for n in self.steps_below)
-        return f"{j} {what}: " + (f"turned back exactly{below}" if self.fixed else f"left as is ({self.why})")
+        what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
+                else f"turned about a half turn and back, {frames}" if self.measured
+                else f"turned 180 deg and back, {frames} (a constant half turn)")
+        done = f"turned back {self.measured}" if self.measured else f"turned back exactly{below}"
+        return f"{j} {what}: " + (done if self.fixed else f"left as is ({self.why})")
 
 
-_NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned 180 deg .*?frames? (\d+)(?:-(\d+))?.*?: left as is \((.*)\)$")
+_NOTE = re.compile(r"^flip: (\S+)(?: \(with ([^)]*)\))? turned (?:180 deg|about a half turn) .*?frames? (\d+)(?:-(\d+))?.*?"
+                   r": left as is \((.*)\)$")
 
 
 def left_from_note(note: str):
@@ -388,8 +406,12 @@ def turned_back(motion, leaves=()) -> tuple:
         out = new
         changed[a : b + 1, joints] = True
         flagged[a : b + 1, joints] = True
+        turned = ()
+        if kind == "leaf":  # what the leaf was turned back by: a half turn exactly, or the measured offsets
+            moved = np.degrees(R.geodesic_angle(q[a : b + 1, chain[0]], new[a : b + 1, chain[0]]))
+            turned = (float(moved.min()), float(moved.max()))
         flips.append(Flip(joint_names, a, b, kind, True, steps_below=tuple(names[c] for c in stepped)
-                          if kind == "bone" else ()))
+                          if kind == "bone" else (), turned_deg=turned))
     if not changed.any():
         return motion, changed, flagged, tuple(flips)
     return dataclasses.replace(motion, rotations=np.where(changed[..., None], out, q)), changed, flagged, tuple(flips)

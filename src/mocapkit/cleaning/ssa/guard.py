@@ -36,6 +36,7 @@ import numpy as np
 
 from ... import rotations as R
 from ..ik import contact_segments
+from ...words import frame_span
 
 __all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "end_roughness", "guard_joint", "held", "rougher_end",
            "roughness"]
@@ -64,19 +65,19 @@ class LeftRun:
     reason: str
 
     def __str__(self) -> str:
-        return f"{LEFT_PREFIX}{self.joint} frames {self.start}-{self.end - 1} ({self.reason})"
+        return f"{LEFT_PREFIX}{self.joint} {frame_span(self.start, self.end - 1)} ({self.reason})"
 
     @classmethod
     def from_note(cls, note: str) -> "LeftRun | None":
         """The run a note of :attr:`CleanResult.notes <mocapkit.cleaning.clean_record.CleanResult.notes>` says
         (``str(run)``, the only form a record keeps); None for any other note."""
         m = _LEFT_NOTE.fullmatch(note)
-        return None if m is None else cls(m["joint"], int(m["a"]), int(m["b"]) + 1, m["reason"])
+        return None if m is None else cls(m["joint"], int(m["a"]), int(m["b"] or m["a"]) + 1, m["reason"])
 
 
 #: how a :class:`LeftRun`'s note begins (the console's, the record's and the report's words)
 LEFT_PREFIX = "left: repair not better than the take: "
-_LEFT_NOTE = re.compile(re.escape(LEFT_PREFIX) + r"(?P<joint>.+) frames (?P<a>\d+)-(?P<b>\d+) \((?P<reason>.*)\)")
+_LEFT_NOTE = re.compile(re.escape(LEFT_PREFIX) + r"(?P<joint>.+) frames? (?P<a>\d+)(?:-(?P<b>\d+))? \((?P<reason>.*)\)")
 
 
 def angular_acceleration(q: np.ndarray) -> np.ndarray:
