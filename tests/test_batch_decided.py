@@ -67,8 +67,9 @@ def test_info_on_the_record_says_its_output_was_decided(decided):
     d, takes, out, decisions, rejected = decided
     code, said, err = run("info", out / "a.clean.npz")
     assert code == 0, err
-    assert (f"decided  its output was then written with only the changes {decisions} accepts (clean --decisions); "
-            "the counts here are the cleaning reviewed") in said
+    said = " ".join(said.split())
+    assert (f"decided its output was then written by clean --decisions with only the changes {decisions} accepts: "
+            "5 of 6 changes accepted, 1 rejected; ") in said and "; the counts here are the cleaning reviewed" in said
     code, said, err = run("info", out / "b.clean.npz")  # the take not decided: no such row
     assert code == 0 and "\ndecided " not in said
 

@@ -69,3 +69,22 @@ def test_messages_a_user_reads_count_one_frame_in_the_singular(tmp_path):
     (tmp_path / "db" / "database.json").write_text(json.dumps(doc))
     with pytest.raises(MocapFormatError, match=r"the clips cover 1 frame, num_frames says 3$"):
         MotionDatabase.open(tmp_path / "db")
+
+
+def test_a_one_frame_run_is_said_as_one_frame_everywhere():
+    """A one-frame flag read "flagged UpperArm_R frames 255-255 (8.50-8.50 s)" and "left: ... UpperArm_R frames
+    255-255", and a bad id "1 change id(s) are not changes of this cleaning" (a user trial); `corrupt` said
+    "frame 46". words.frame_span is the one way a run of frames is said; the lines read back still read."""
+    from mocapkit.cleaning.decisions import check_choices
+    from mocapkit.cleaning.ssa import LeftRun
+    from mocapkit.words import frame_span
+
+    assert frame_span(255, 255, 30.0) == "frame 255 (8.50 s)" and frame_span(250, 252, 30) == "frames 250-252 (8.33-8.40 s)"
+    assert frame_span(7, 7) == "frame 7" and frame_span(7, 9) == "frames 7-9"
+    run = LeftRun("UpperArm_R", 255, 256, "joins the take less smoothly")
+    assert str(run) == "left: repair not better than the take: UpperArm_R frame 255 (joins the take less smoothly)"
+    assert LeftRun.from_note(str(run)) == run
+    with pytest.raises(ValueError, match=r"^1 change id is not a change of this cleaning: 'repair:Spine:12-14'$"):
+        check_choices({"repair:Spine:12-14": "reject"}, ["repair:Spine:12-13"])
+    with pytest.raises(ValueError, match=r"^2 change ids are not changes of this cleaning: "):
+        check_choices({"a": "reject", "b": "accept"}, ["c"])

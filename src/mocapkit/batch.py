@@ -76,7 +76,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from .errors import MocapError, MocapFormatError, os_error_line, output_stopper
-from .batch_decided import is_own_record, stamp_decided
+from .batch_decided import decided_entry, is_own_record, stamp_decided
 from .batch_folder import BATCH_MARK, mark, only_batch, prune, sweep, unmark_if_empty
 from .batch_plan import DEFAULT_PATTERNS, check_batch_outputs, find_inputs, output_for, plan_outputs, unwritable
 from .batch_request import REQUEST_DEFAULTS, clean_request, request_change
@@ -302,9 +302,11 @@ def clean_file(
             plot_summary(dataclasses.replace(res, motion=cleaned), m, png, title=inp.name)
         io.save(cleaned, out, like=inp, asf=asf, copy_asf=False)  # the ASF: skeleton_copy, or the batch's
         if reuse and is_own_record(record, out):  # decided in place: a later batch keeps OUT (batch_decided)
-            stamp_decided(record, decisions, out)
+            stamp_decided(record, decisions, out, decided.decided.holds())
         if not reuse:  # last: the completion marker, keeping what was read and written (_not_complete)
-            res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}})
+            # a new cleaning, decided: its record says so, as one decided in place does (batch_decided)
+            said = {} if decided is None else {"decided": decided_entry(decisions, out, decided.decided.holds())}
+            res = replace(res, params={**res.params, "written": {"input": taken, "output": file_facts(out)}, **said})
             res.save(record)
     return m, res if decided is None else decided
 

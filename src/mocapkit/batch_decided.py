@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["stamp_decided", "decided_by", "is_own_record"]
+__all__ = ["stamp_decided", "decided_entry", "decided_by", "is_own_record"]
 
 
 def is_own_record(record, out) -> bool:
@@ -32,17 +32,19 @@ def is_own_record(record, out) -> bool:
     return record is not None and own.exists() and same_file(record, own)
 
 
-def stamp_decided(record, decisions, out) -> None:
+def stamp_decided(record, decisions, out, holds: str = "") -> None:
     """Keep in ``record`` (a joint-angle take's or a marker capture's ``.clean.npz``) that ``out`` was written by
-    applying ``decisions`` (a file path, kept absolute): ``{"decisions": path, "output": file_facts(out)}``.
+    applying ``decisions`` (a file path, kept absolute): ``{"decisions": path, "output": file_facts(out), "holds":
+    holds}`` (``holds``: what ``out`` holds, :meth:`mocapkit.cleaning.decided.Decided.holds`; the record's own counts
+    are the cleaning reviewed). OUT's own record applied in place is stamped so; the record of a new cleaning that
+    ``clean --decisions`` writes beside OUT is saved with the same entry (:func:`decided_entry`).
 
     The record is rewritten atomically with every array as it was; a joint-angle record keeps the entry in its
     ``params`` (``params["decided"]``), a marker capture's record as its ``decided`` field.
     """
     from .io import atomic_write
-    from .io.outputs import file_facts
 
-    entry = {"decisions": os.path.abspath(os.fspath(decisions)), "output": file_facts(out)}
+    entry = decided_entry(decisions, out, holds)
     record = Path(record)
     with np.load(record, allow_pickle=False) as data:
         arrays = {k: data[k] for k in data.files}
@@ -54,6 +56,14 @@ def stamp_decided(record, decisions, out) -> None:
         arrays["decided"] = np.array(json.dumps(entry))
     with atomic_write(record, "wb") as fh:
         np.savez_compressed(fh, **arrays)
+
+
+def decided_entry(decisions, out, holds: str = "") -> dict:
+    """The ``decided`` entry :func:`stamp_decided` keeps (the record of a new cleaning is saved with it):
+    ``{"decisions": path (absolute), "output": file_facts(out), "holds": holds}``."""
+    from .io.outputs import file_facts
+
+    return {"decisions": os.path.abspath(os.fspath(decisions)), "output": file_facts(out), "holds": holds}
 
 
 def decided_by(params: dict | None, out) -> str:

@@ -16,7 +16,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
 
-from .batch_decided import is_own_record, stamp_decided
+from .batch_decided import decided_entry, is_own_record, stamp_decided
 from .errors import MocapError
 
 __all__ = ["clean_marker_file", "the_input", "marker_request", "joint_angle_options", "refuse_marker_options"]
@@ -173,8 +173,9 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             save_markers(given.output, out, like=ms, stored_zeros=True, keep_modelled=keep_modelled,
                          filled=given.fill_mask, overwrite=True)  # out: checked by the output guard before the work
         if reuse and chosen is not None and is_own_record(record, out):  # decided in place: a later batch keeps OUT
-            stamp_decided(record, decisions, out)
+            stamp_decided(record, decisions, out, given.decided.holds())
         if not reuse:  # last: the completion marker
-            res.save(record, written={"input": taken, "output": file_facts(out)},
-                     request=request)
+            # a new cleaning, decided: its record says so, as one decided in place does (batch_decided)
+            res.save(record, written={"input": taken, "output": file_facts(out)}, request=request,
+                     decided=None if chosen is None else decided_entry(decisions, out, given.decided.holds()))
     return ms, given

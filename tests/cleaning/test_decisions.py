@@ -210,7 +210,7 @@ def test_a_record_of_another_take_is_refused(result, take):
 
 
 def test_unknown_ids_and_bad_choices_are_refused(result, take, found):
-    with pytest.raises(ValueError, match="not changes of this cleaning: 'repair:nosuchjoint:1-2'"):
+    with pytest.raises(ValueError, match="1 change id is not a change of this cleaning: 'repair:nosuchjoint:1-2'"):
         D.apply(take, result, {"repair:nosuchjoint:1-2": D.REJECT})
     with pytest.raises(ValueError, match="'accept' or 'reject'"):
         D.apply(take, result, {found[0].id: "maybe"})
@@ -273,7 +273,7 @@ def test_decisions_for_another_take_or_another_cleaning_are_refused(result, take
     doc = D.template(take, found)
     doc["decisions"]["repair:lfemur:0-9999"] = D.REJECT
     path = _write(tmp_path / "stale.json", doc)
-    with pytest.raises(MocapFormatError, match="not changes of this cleaning") as err:
+    with pytest.raises(MocapFormatError, match="not a change of this cleaning") as err:
         D.check_decisions(D.read_decisions(path), path, take, result)
     assert str(path) in str(err.value) and "\n" not in str(err.value)
 

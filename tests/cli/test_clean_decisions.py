@@ -102,7 +102,8 @@ def test_decisions_reuse_the_record_beside_out(cleaned, tmp_path, capsys):
     # the record's cleaning is read, not changed: it only notes the decisions that wrote OUT (mocapkit.batch_decided)
     assert _same_record(record, d / "walk.before.clean.npz")
     assert CleanResult.load_params(record)["decided"] == {"decisions": str(dec), "output": {
-        "size": out.stat().st_size, "sha256": digest(out)}}
+        "size": out.stat().st_size, "sha256": digest(out)}, "holds": f"{len(ids) - 1} of {len(ids)} changes accepted, "
+        f"1 rejected; {int(D.accepted_cells(CleanResult.load(record), {ids[0]: D.REJECT}).sum())} joint samples of 10633 changed"}
     _check_output(out, inp, record, {ids[0]: D.REJECT})
 
 
@@ -129,6 +130,8 @@ def test_decisions_with_an_explicit_record_and_a_report(cleaned, tmp_path, capsy
     before, after = map(float, re.search(r"error against walk_ref.npz: pose error ([\d.]+) -> ([\d.]+)", text).groups())
     assert after < before  # the accepted changes still repair
     assert not (tmp_path / "final.clean.npz").exists()  # no new cleaning, no new record
+    assert main(["clean", "--help"]) == 0  # and the help says so, where it said a record is written beside OUT
+    assert "with --decisions --record of another file: not written" in " ".join(capsys.readouterr().out.replace("│", " ").split())
     _check_output(out, inp, d / "walk.clean.npz", {ids[0]: D.REJECT, ids[1]: D.REJECT})
     block = review_block(rep)  # the new report starts from the decisions taken
     assert [block["decisions"]["decisions"][i] for i in ids[:3]] == [D.REJECT, D.REJECT, D.ACCEPT]
@@ -153,6 +156,15 @@ def test_decisions_without_a_record_clean_first(cleaned, tmp_path, capsys):
     assert np.degrees(2 * np.arccos(np.clip(dot, 0, 1))).max() < 1e-3
     moved = np.abs(np.sum(take.rotations * cleaned.rotations, axis=-1))
     assert np.degrees(2 * np.arccos(np.clip(moved[acc], 0, 1))).max() > 1.0  # the accepted changes are there
+    # the record beside the decided OUT says so, by which file, and what OUT holds (it said the full cleaning's
+    # counts and no word of the decisions); `info` shows it, as for OUT's own record decided in place
+    entry = CleanResult.load(record).params["decided"]
+    n = len(ids)
+    assert entry["decisions"] == str(dec.resolve()) and entry["output"]["sha256"] == digest(out)
+    assert entry["holds"] == f"{n - 1} of {n} changes accepted, 1 rejected; {int(acc.sum())} joint samples of {acc.size} changed"
+    assert main(["info", str(record)]) == 0
+    said = " ".join(capsys.readouterr().out.split())
+    assert f"decided its output was then written by clean --decisions with only the changes {dec.resolve()} accepts: {entry['holds']}" in said
 
 
 def test_decisions_for_another_take_are_refused_and_nothing_is_written(cleaned, tmp_path, capsys):

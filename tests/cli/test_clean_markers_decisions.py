@@ -144,6 +144,17 @@ def test_review_mode_names_the_changes_and_writes_the_capture_unchanged(capture,
     assert _same(load_markers(got), load_markers(inp))
     page = (tmp_path / "r.html").read_text()
     assert "review mode (--steps detect)" in page and "swap:Male:LTOE:400-439" in page
+    # what the cleaning would do is said so: "1 gap filled (40 samples), 1 spike removed" read as done on a capture
+    # whose samples are the input's, and `info` said the record as a real clean's ("changed 87 marker samples")
+    assert re.search(r"^  would fill 1 gap \(40 samples\), remove 1 spike \(1 sample\), undo 1 label swap", stdout, re.M)
+    assert not re.search(r"\d+ gaps? filled \(", stdout), stdout
+    code, said, err = run("info", tmp_path / "review.clean.npz")
+    assert code == 0, err
+    said = " ".join(said.split())
+    assert "marker cleaning record (mocapkit clean of a marker capture), review mode (--steps detect)" in said
+    assert "changed none: its output holds the input's samples; cleaning would change " in said, said
+    code, said, err = run("info", d / "out.clean.npz")  # a real clean's record says what it changed
+    assert code == 0 and "review mode" not in said and "would" not in said and re.search(r"changed\s+\d+ marker samples", said)
 
 
 def test_reject_one_change_in_the_report_download_and_apply(capture, tmp_path):

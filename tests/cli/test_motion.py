@@ -439,8 +439,8 @@ def test_info_describes_mocapkit_s_json_files(tmp_path):
     from mocapkit.batch import BATCH_MARK
 
     (tmp_path / "take.decisions.json").write_text(json.dumps({
-        "format": "mocapkit.decisions/1", "mocapkit": "0.2.0", "take": {"name": "walk.bvh"}, "output": "w.bvh",
-        "decisions": {"repair:a:1-2": "reject", "fill:b:3-4": "accept"}}))
+        "format": "mocapkit.decisions/1", "mocapkit": "0.2.0", "take": {"name": "walk.bvh", "sha256": "0" * 64},
+        "output": "w.bvh", "decisions": {"repair:Neck:1-2": "reject", "fill:b:3-4": "accept"}}))
     code, text, err = run("info", tmp_path / "take.decisions.json")
     assert code == 0, err
     assert "review decisions" in text and "1 accepted, 1 rejected" in text
@@ -704,3 +704,27 @@ def test_info_says_which_part_of_the_missing_share_is_markers_never_seen(tmp_pat
     assert "4.88 % of marker samples (2 of 41 markers never seen: Male:LFWT, Male:RFWT)" in out, out
     assert main(["info", str(mocapkit.samples.path("Eb015pr.c3d"))]) == 0
     assert "never seen" not in capsys.readouterr().out  # every marker seen: the line as before
+
+
+@pytest.mark.parametrize("choices, said", [
+    ('{"repair:Hips:1-2": "reject", "repair:Spine:3-4": "Reject"}',
+     "refused by clean --decisions: change 'repair:Spine:3-4': 'Reject'; a decision is \"accept\" or \"reject\""),
+    ('{"repair:Neck:1-2": "maybe"}', "refused by clean --decisions: change 'repair:Neck:1-2': 'maybe'"),
+    ('{"repair:Neck:1-2": "reject", "repair:Neck:1-2": "accept"}',
+     "refused by clean --decisions: change 'repair:Neck:1-2' is named twice: JSON would keep only the last"),
+    ('{"repair:Neck:1-2": true}', "refused by clean --decisions: change 'repair:Neck:1-2': True"),
+    ('{"repair:Neck:1-2": "reject"}',
+     "0 accepted, 1 rejected; a change of the cleaning it does not name is accepted (a file written by hand)"),
+])
+def test_info_says_what_clean_decisions_does_with_a_decisions_file(tmp_path, choices, said):
+    """`info D.json` counted every choice but exactly "reject" as accepted ("Reject", "maybe", true) and a change
+    named twice by its last choice: the very files `clean --decisions` refuses, and a hand-written file's unnamed
+    changes (accepted by clean) went unsaid. It now reads the file as clean does and says what clean would do."""
+    path = tmp_path / "d.json"
+    path.write_text('{"format": "mocapkit.decisions/1", "take": {"name": "t.bvh", "sha256": "%s"}, "decisions": %s}'
+                    % ("0" * 64, choices))
+    code, text, err = run("info", path)
+    assert code == 0, err
+    row = " ".join(next(ln for ln in text.splitlines() if ln.startswith("decisions")).split()[1:])
+    assert row.startswith(said), row
+    assert "accepted" not in row or not row.startswith("refused")

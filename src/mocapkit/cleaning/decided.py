@@ -57,6 +57,13 @@ class Decided:
                 f"rejected; {self.samples} {self.item}{'' if self.samples == 1 else 's'} of {self.total} changed, "
                 f"every other sample is {self.take}'s")
 
+    def holds(self) -> str:
+        """What the decided output holds, in one line: the changes accepted and rejected, the samples changed (the
+        ``decided`` entry of a record beside it keeps it: :func:`mocapkit.batch_decided.stamp_decided`)."""
+        n, r = self.changes, len(self.rejected)
+        return (f"{n - r} of {n} change{'' if n == 1 else 's'} accepted, {r} rejected; {self.samples} "
+                f"{self.item}{'' if self.samples == 1 else 's'} of {self.total} changed")
+
     def rejected_lines(self, frames_note: str = "") -> list[str]:
         """``rejected ...`` for the first :data:`MAX_LISTED` rejected changes, a count of the rest, and
         ``frames_note`` (how the frames relate to the file's own numbers) where a change is listed."""

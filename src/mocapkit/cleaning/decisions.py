@@ -100,7 +100,7 @@ from .ik import contact_segments
 from .ssa.cues import cause_names
 from ..digest import take_digest
 from .ties import SplitTieError, split_message, swap_cells, tie_groups
-from ..words import plural
+from ..words import frame_span, plural
 
 __all__ = ["FORMAT", "ACCEPT", "REJECT", "Change", "changes", "apply", "take_digest", "template", "read_decisions",
            "check_decisions", "check_record", "record_problem", "as_written", "accepted_cells", "flag_segments",
@@ -161,7 +161,7 @@ class Change:
 
     def __str__(self) -> str:
         size = "was missing" if math.isnan(self.max_deg) else f"{_deg(self.max_deg)} deg"
-        return f"{self.id}: {self.joint} frames {self.first}-{self.last} ({self.step}, {size})"
+        return f"{self.id}: {self.joint} {frame_span(self.first, self.last)} ({self.step}, {size})"
 
 
 def _runs(result) -> list[tuple[int, int, int, int]]:
@@ -374,7 +374,8 @@ def check_choices(decisions: Mapping[str, str], ids) -> None:
     or a choice other than ``accept``/``reject`` (a joint-angle take's or a marker capture's changes alike)."""
     unknown = [k for k in decisions if k not in ids]
     if unknown:
-        raise ValueError(f"{len(unknown)} change id(s) are not changes of this cleaning: "
+        raise ValueError(f"{plural(len(unknown), 'change id')} "
+                         f"{'is not a change' if len(unknown) == 1 else 'are not changes'} of this cleaning: "
                          f"{', '.join(map(repr, unknown[:3]))}{', ...' if len(unknown) > 3 else ''}")
     bad = {v for v in decisions.values() if v not in (ACCEPT, REJECT)}
     if bad:
@@ -549,6 +550,29 @@ def read_decisions(path) -> dict:
     except RecursionError:
         raise MocapFormatError(path, "JSON nested too deeply; not a mocapkit decisions file") from None
     return check_document(doc, path)
+
+
+def what_clean_does(path) -> str:
+    """What ``mocapkit clean --decisions PATH`` would do with the decisions file ``path``, in one line (``mocapkit
+    info`` says it): refused, with the refusal's own words (:func:`read_decisions`: a choice other than "accept" or
+    "reject", a change named twice, no take digest, ...), or how many changes it accepts and rejects and what
+    becomes of a change it does not name (accepted for a file written by hand; refused for one the report made, which
+    names every change). ``info`` counted every choice but "reject" as accepted and a change named twice by its
+    last choice, the very reading ``clean`` refuses."""
+    try:
+        doc = read_decisions(path)
+    except MocapFormatError as exc:
+        return f"refused by clean --decisions: {exc.reason}"
+    chosen = list(doc["decisions"].values())
+    rejected = chosen.count(REJECT)
+    counts = f"{len(chosen) - rejected} accepted, {rejected} rejected"
+    if "cleaning" not in doc:
+        return f"{counts}; a change of the cleaning it does not name is accepted (a file written by hand)"
+    total = doc["cleaning"].get("changes")
+    if isinstance(total, int) and total > len(chosen):
+        return (f"{counts}; refused by clean --decisions: it names {len(chosen)} of the "
+                f"{plural(total, 'change')} it was made for (the report names each)")
+    return f"{counts}; a change of the cleaning it does not name is refused (the report names each)"
 
 
 def check_document(doc, path) -> dict:

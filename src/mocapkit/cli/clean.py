@@ -10,6 +10,7 @@ from typing import Optional
 import typer
 
 from ..errors import MocapError, MocapFormatError
+from ..words import frame_span
 from .common import (STEPS_HELP, amc_fps_option, asf_option, check_executor, check_noise_deg, console, context_option, joint_map_option, read_map,
                      executor_option, guard, keep_modelled_option, max_fill_error_option, max_gap_option,
                      listed, noise_deg_option, overwrite_option, percent, plural, unit_option, zeros_option)
@@ -35,7 +36,7 @@ def _model_option(kind: str):
 def clean(
     ctx: typer.Context,
     inp: Path = typer.Argument(..., metavar="IN", help="Motion (.bvh, .amc, .npz) or marker capture (.c3d, .trc, marker .npz) to clean."),
-    out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it."),
+    out: Path = typer.Option(..., "--out", "-o", help="Cleaned take (.bvh, .amc for a take read from ASF/AMC, or .npz; a marker capture: .c3d, .trc or .npz); OUT's stem + .clean.npz is written beside it (with --decisions --record of another file: not written)."),
     context: Optional[list[Path]] = context_option(),
     joint_map: Optional[Path] = joint_map_option(),
     steps: str = typer.Option("fill,detect,repair,denoise", "--steps",
@@ -56,7 +57,8 @@ def clean(
                                   "accepted changes. The record of the earlier run (--record, else OUT's .clean.npz "
                                   "if it exists) is reused; without one the take is cleaned first."),
     record: Optional[Path] = typer.Option(None, "--record", help="With --decisions: the .clean.npz of the earlier run "
-                                                                 "(default: OUT's, if it exists)."),
+                                                                 "(default: OUT's, if it exists). Another file than "
+                                                                 "OUT's: no record is written beside OUT."),
     ebf: Optional[Path] = _model_option("ebf"),
     ebd: Optional[Path] = _model_option("ebd"),
     asf: Optional[Path] = asf_option(),
@@ -73,7 +75,10 @@ def clean(
     Writes OUT and, beside it, OUT's stem + .clean.npz (MDM, flags, the cells each step changed and
     a record per step); everything not missing, flagged or noisy stays bit-identical. The report
     (--report) lists every change for a person to accept or reject; --decisions then writes OUT
-    with only the accepted changes, every other sample bit-identical to IN. A marker
+    with only the accepted changes, every other sample bit-identical to IN, and the record beside
+    OUT says by which file and what OUT holds (its counts stay the cleaning reviewed): OUT's own
+    record is reused and stamped, or, with no record, the new cleaning's is written stamped; with
+    --record naming another record, none is written beside OUT (that record stays as it was). A marker
     capture (.c3d, .trc) gets swapped labels undone, spikes removed and gaps filled instead, each a
     change to accept or reject the same way (--steps detect reviews it; the other options of
     joint-angle takes are refused for it); every other sample stays bit-identical.
@@ -186,8 +191,8 @@ def clean(
         for g in segs[:12]:
             a, last = g["first"], g["last"]
             why = ": " + ", ".join(g["why"]) if g["why"] else ""
-            console.print(f"    flagged {g['joint']:16s} frames {a}-{last} "
-                          f"({a / m.fps:.2f}-{last / m.fps:.2f} s){why}")  # each frame's time, as the viewer labels it
+            # each frame's time, as the viewer labels it
+            console.print(f"    flagged {g['joint']:16s} {frame_span(a, last, m.fps)}{why}")
         if len(segs) > 12:
             console.print(f"    ... and {len(segs) - 12} more (all in {clean_path(out)})")
     _print_reference(ref, reference, original, m)
@@ -305,7 +310,7 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
         console.print(f"note: {note}")
     for fix in res.fixes[:12]:
         other = f" with {fix.other}" if fix.other and fix.kind == "swap" else ""  # a duplicate's says it in words
-        console.print(f"    {fix.kind:9s} {fix.marker:16s} frames {fix.start}-{fix.end - 1}{other} ({fix.size_text})")
+        console.print(f"    {fix.kind:9s} {fix.marker:16s} {frame_span(fix.start, fix.end - 1)}{other} ({fix.size_text})")
     if len(res.fixes) > 12:
         console.print(f"    ... and {len(res.fixes) - 12} more (all in {clean_path(out)})")
     return True

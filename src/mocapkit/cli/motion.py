@@ -355,7 +355,10 @@ def _info_of_own_file(path: Path) -> bool:
         from ..cleaning.markers.record import read_marker_record
 
         rec = read_marker_record(path)
-        rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"),
+        kept = _record_json(path, ("request", "decided"))  # what a cleaning was asked, and decisions applied
+        review = isinstance(kept.get("request"), dict) and kept["request"].get("review") is True
+        rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"
+                                              + (", review mode (--steps detect)" if review else "")),
                 ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
                 ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
                             f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())}"
@@ -378,7 +381,12 @@ def _info_of_own_file(path: Path) -> bool:
             rows.append(("never seen", ", ".join(rec.never_seen)))
         if rec.unlabelled:
             rows.append(("unlabelled", f"{plural(len(rec.unlabelled), 'trajectory', 'trajectories')} left as read"))
-        print_fields(rows)
+        if review:  # the counts are the cleaning's, not its output's (the input's samples): a BVH's says "changed 0"
+            said = dict(rows)
+            rows = [(k, "none: its output holds the input's samples; cleaning would "
+                        f"change {said[k]}" if k == "changed" else
+                        f"none; cleaning would have: {said[k]}" if k == "fixes" else v) for k, v in rows]
+        print_fields(rows + _decided_rows({"decided": kept.get("decided")}))
         return True
     if name.endswith(".mask.npz") and "mask" in keys:
         from ..io.masks import read_mask
@@ -436,12 +444,12 @@ def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
         print_fields(rows)
         return True
     if str(doc.get("format", "")).startswith("mocapkit.decisions"):
-        decided = doc.get("decisions", {}) if isinstance(doc.get("decisions"), dict) else {}
-        rejected = sum(1 for v in decided.values() if v == "reject")
+        from ..cleaning.decisions import what_clean_does  # read as clean --decisions reads it, refusals too
+
         take = doc.get("take", {}) if isinstance(doc.get("take"), dict) else {}
         print_fields([("file", str(path)), ("kind", "review decisions (clean --decisions applies them)"),
                       ("take", str(take.get("name", "?"))), ("output", str(doc.get("output", "?"))),
-                      ("decisions", f"{len(decided) - rejected} accepted, {rejected} rejected"),
+                      ("decisions", what_clean_does(path)),
                       ("written by", f"mocapkit {doc.get('mocapkit', '?')}")])
         return True
     if path.name == BATCH_MARK and "input" in doc:
@@ -452,6 +460,24 @@ def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
     return False
 
 
+def _record_json(path: Path, keys) -> dict:
+    """The JSON members ``keys`` of the record ``path`` that it keeps (a marker capture's ``request``, ``decided``),
+    each parsed; one it lacks, or cannot parse, is left out."""
+    import json
+
+    import numpy as np
+
+    out = {}
+    with np.load(path, allow_pickle=False) as z:
+        for key in keys:
+            if key in z.files:
+                try:
+                    out[key] = json.loads(str(z[key]))
+                except ValueError:
+                    pass
+    return out
+
+
 def _decided_rows(params: dict | None) -> list[tuple[str, str]]:
     """The ``decided`` row of a record whose output was then written by ``clean --decisions`` over it in place
     (:mod:`mocapkit.batch_decided`): the counts above it are the cleaning reviewed, not the output beside it,
@@ -459,8 +485,9 @@ def _decided_rows(params: dict | None) -> list[tuple[str, str]]:
     entry = (params or {}).get("decided")
     if not isinstance(entry, dict) or not entry.get("decisions"):
         return []
-    return [("decided", f"its output was then written with only the changes {entry['decisions']} accepts "
-                        "(clean --decisions); the counts here are the cleaning reviewed")]
+    holds = f": {entry['holds']}" if entry.get("holds") else ""
+    return [("decided", f"its output was then written by clean --decisions with only the changes "
+                        f"{entry['decisions']} accepts{holds}; the counts here are the cleaning reviewed")]
 
 
 def _describe_checkpoint(path: Path) -> bool:

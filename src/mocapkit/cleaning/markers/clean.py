@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ...markerset import check_units, subject_of
-from ...words import plural
+from ...words import frame_span, plural
 from .duplicates import find_duplicates
 from .foreign import find_foreign
 from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
@@ -320,11 +320,19 @@ class MarkerCleanResult:
             # of the markers' samples: a C3D's modelled quantities (angles, forces, ...) are left as read, as info counts
             n, total = int(self.changed.sum()), self.changed.shape[0] * int((self.markers.quantities() == "").sum())
             return ([f"review mode (--steps detect): the capture unchanged; cleaning would change {n} of "
-                     f"{plural(total, 'marker sample')}"] + dataclasses.replace(self, review=False).summary())
+                     f"{plural(total, 'marker sample')}"] + dataclasses.replace(self, review=False).said(would=True))
+        return self.said()
+
+    def said(self, would: bool = False) -> list[str]:
+        """:meth:`summary`'s lines of a cleaning, said of what it did, or (``would``: review mode, the capture written
+        unchanged) of what it would do: "would fill 23 gaps (425 samples)", not "23 gaps filled", which read as
+        done on a capture whose samples are the input's."""
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        lines = [f"{plural(counts['gap'], 'gap')} filled ({plural(int(self.filled.sum()), 'sample')}), "
-                 f"{plural(counts['spike'], 'spike')} removed ({plural(int(self.spikes.sum()), 'sample')}), "
-                 f"{plural(counts['swap'], 'label swap')} undone ({plural(int(self.swapped.sum()), 'sample')})"]
+        sizes = [plural(counts["gap"], "gap"), plural(int(self.filled.sum()), "sample"),
+                 plural(counts["spike"], "spike"), plural(int(self.spikes.sum()), "sample"),
+                 plural(counts["swap"], "label swap"), plural(int(self.swapped.sum()), "sample")]
+        lines = [("would fill {} ({}), remove {} ({}), undo {} ({})" if would else
+                  "{} filled ({}), {} removed ({}), {} undone ({})").format(*sizes)]
         skip = np.isin(self.markers.labels, self.unlabelled)
         if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
             skip = skip | self.original.modelled()
@@ -332,7 +340,8 @@ class MarkerCleanResult:
         removed = gone & ~self.original.missing()[:, ~skip]  # recorded samples removed as spikes, no fill passed
         left = int(np.sum(gone & ~removed))
         if left:
-            lines.append(f"{plural(left, 'sample')} still missing")
+            lines.append(f"cleaning would leave {plural(left, 'sample')} missing" if would
+                         else f"{plural(left, 'sample')} still missing")
         if removed.any():
             gone_fixes = [x for x in self.fixes if x.kind in _REMOVED and not np.isfinite(x.size_mm)]
             kinds = {x.kind for x in gone_fixes}
@@ -341,12 +350,15 @@ class MarkerCleanResult:
             long = sum(1 for x in gone_fixes if x.too_long)
             why = ("longer than --max-gap" if gone_fixes and long == len(gone_fixes) else
                    "no plausible fill, or longer than --max-gap" if long else "no plausible fill")
-            lines.append(f"{plural(int(removed.sum()), 'recorded sample')} removed as {how} and left missing ({why})")
+            gone_n = plural(int(removed.sum()), "recorded sample")
+            lines.append(f"cleaning would remove {gone_n} as {how} and leave them missing ({why})" if would
+                         else f"{gone_n} removed as {how} and left missing ({why})")
         for x in (x for kind in ("duplicate", "foreign") for x in self.fixes if x.kind == kind):
             done = "removed and filled" if np.isfinite(x.size_mm) else f"removed, left missing ({x.left_text})"
-            lines.append(f"{x.marker} frames {x.start}-{x.end - 1}: {x.removed_as}, {done}")
+            done = f"would be {done}" if would else done
+            lines.append(f"{x.marker} {frame_span(x.start, x.end - 1)}: {x.removed_as}, {done}")
         for x in self.coincident:
-            lines.append(f"{x.marker} and {x.other} frames {x.start}-{x.end - 1}: at the same position "
+            lines.append(f"{x.marker} and {x.other} {frame_span(x.start, x.end - 1)}: at the same position "
                          f"({x.size_mm:.1f} mm apart at most); one is a duplicate label, which one cannot be told "
                          f"({x.note}): both left as recorded")
         long = [x for x in self.unfilled if x.too_long]
@@ -355,7 +367,7 @@ class MarkerCleanResult:
             if not group:
                 continue
             n = len(group)
-            shown = "; ".join(f"{x.marker} frames {x.start}-{x.end - 1} ({_REMOVED.get(x.kind, '')}"
+            shown = "; ".join(f"{x.marker} {frame_span(x.start, x.end - 1)} ({_REMOVED.get(x.kind, '')}"
                               f"{x.seconds:.2f} s" + ("" if x.too_long or not x.why_left else f": {x.why_left}") + ")"
                               for x in group[:3])
             more = f"; ... and {n - 3} more" if n > 3 else ""
@@ -369,11 +381,12 @@ class MarkerCleanResult:
         marker = "labelled marker" if self.unlabelled else "marker"
         for where, (a, b) in (("start", self.unseen_start), ("end", self.unseen_end)):
             if b > a:
-                lines.append(f"frames {a}-{b - 1} at the take's {where} see no {marker}: left missing (nothing to fill from)")
+                lines.append(f"{frame_span(a, b - 1)} at the take's {where} see{'s' if b - a == 1 else ''} no {marker}: "
+                             "left missing (nothing to fill from)")
         f = self.markers.positions.shape[0]
         for who, a, b in self.nobody_seen:
             why = "not yet in the volume?" if a == 0 else ("gone from the volume?" if b == f else "out of the volume?")
-            lines.append(f"{who + ': ' if who else ''}frames {a}-{b - 1}: nobody seen ({why}), left missing")
+            lines.append(f"{who + ': ' if who else ''}{frame_span(a, b - 1)}: nobody seen ({why}), left missing")
         if self.unlabelled:
             n = len(self.unlabelled)
             names = ", ".join(self.unlabelled[:4]) + (f" ... {self.unlabelled[-1]}" if n > 4 else "")
@@ -393,10 +406,12 @@ class MarkerCleanResult:
             lines.append(self.frames_note)
         return lines
 
-    def save(self, path, written: dict | None = None, request: dict | None = None) -> Path:
+    def save(self, path, written: dict | None = None, request: dict | None = None,
+             decided: dict | None = None) -> Path:
         """Write the masks and the list of fixes as ``.npz`` (no pickles), atomically; ``written``: what
-        :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), and ``request``: what the
-        capture was asked to be cleaned with (:func:`mocapkit.batch.marker_request`), each kept as JSON."""
+        :func:`mocapkit.batch.clean_marker_file` read and wrote (sizes and digests), ``request``: what the
+        capture was asked to be cleaned with (:func:`mocapkit.batch.marker_request`), and ``decided``: the decisions
+        its output was written with (:func:`mocapkit.batch_decided.decided_entry`), each kept as JSON."""
         from ...io import atomic_write
         from .decisions import record_cells
 
@@ -417,6 +432,7 @@ class MarkerCleanResult:
                 kind=np.array("markers"), **record_cells(self.original, self.markers),
                 **({"written": np.array(json.dumps(written))} if written else {}),
                 **({"request": np.array(json.dumps(request))} if request else {}),
+                **({"decided": np.array(json.dumps(decided))} if decided else {}),
             )
         return path
 
