@@ -215,16 +215,18 @@ def context_key(files: Sequence, fps: float = BUILD_FPS, features: Sequence[str]
 
 
 def _progress(total: int, enabled: bool):
-    """A rich progress bar on stderr (a no-op when not ``enabled``)."""
+    """A rich progress bar on stderr (a no-op when not ``enabled``). The file name it shows is shown as it is: no
+    rich markup (``[/b]``) nor emoji code (``:smile:``) read in it."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 
     from .progress import bar_disabled
 
     mode = bar_disabled(enabled)  # on a terminal only, as every bar (mocapkit.progress)
-    console = Console(stderr=True, force_terminal=True if mode is False else None)
+    console = Console(stderr=True, force_terminal=True if mode is False else None, markup=False, emoji=False,
+                      highlight=False)
     return Progress(TextColumn("building context"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn(),
-                    TextColumn("{task.description}"), console=console,
+                    TextColumn("{task.description}", markup=False), console=console,
                     disable=mode is True or (mode is None and not console.is_terminal), transient=True)
 
 

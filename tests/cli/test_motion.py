@@ -108,6 +108,18 @@ def test_markup_in_names_is_printed_as_is(tmp_path, capsys):
     assert str(dest) in capsys.readouterr().out and dest.is_file()
 
 
+def test_emoji_codes_in_names_are_printed_as_is(tmp_path, capsys):
+    """rich read ``:b:`` of a change id ``repair:b:3-4`` as an emoji (``repair🅱3-4``): ids, joint and file names
+    print as given."""
+    m = _renamed(mocapkit.load(SAMPLE)[:60], {"LeftKnee": "repair:b:3-4", "Hips": ":smile:"}, ":ok:")
+    inp = tmp_path / "take:b:.npz"
+    mocapkit.save(m, inp)
+    assert main(["info", str(inp), "--joints"]) == 0
+    out = capsys.readouterr().out
+    assert "repair:b:3-4" in out and ":smile:" in out and str(inp) in out and ":ok:" in out
+    assert "\N{NEGATIVE SQUARED LATIN CAPITAL LETTER B}" not in out
+
+
 def test_info_on_a_rig_without_human_joints(tmp_path, capsys):
     from mocapkit.motion import ROLES, Motion, Skeleton
 

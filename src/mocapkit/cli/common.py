@@ -2,8 +2,10 @@
 
 The console prints with rich markup **off**: joint, clip and file names come
 from user files and may contain ``[/b]`` or ``[/]``, which rich would read as
-markup (and crash on, or hide). Nothing this package prints uses markup, so
-no user string needs escaping case by case. Lines are not wrapped or cut
+markup (and crash on, or hide). Emoji codes are off too: a change id
+``repair:b:3-4`` or a joint named ``:smile:`` printed as an emoji
+(``repair🅱3-4``). Nothing this package prints uses markup or emoji, so no
+user string needs escaping case by case. Lines are not wrapped or cut
 (``soft_wrap``), so a long path prints whole.
 """
 
@@ -50,7 +52,7 @@ __all__ = [
     "FlagsGroup",
 ]
 
-console = Console(markup=False, highlight=False, soft_wrap=True)
+console = Console(markup=False, emoji=False, highlight=False, soft_wrap=True)
 
 
 def _cli_type(shown: str) -> str:
