@@ -62,17 +62,24 @@ def load(path, **kwargs):
     kind = suffix_kind(path, READERS, "reading")
     if not path.is_file():
         raise (MocapFormatError(path, "not a regular file") if path.exists() else MissingFileError(path))
-    reader = _reader(kind)
-    wrong = [k for k in kwargs if k not in _reader_keywords(kind)]
+    _check_keywords(path, kwargs, READERS, "load")
+    return _reader(kind)(path, **kwargs)
+
+
+def _check_keywords(path: Path, kwargs: dict, table: dict, caller: str) -> None:
+    """Refuse a keyword of ``kwargs`` that the reader of ``path``'s format does not take, in one
+    :class:`~mocapkit.errors.MocapFormatError` naming the file and which keywords fit which suffix of ``table``
+    (:data:`READERS` for :func:`load`, :data:`MARKER_FORMATS` for :func:`load_markers`; ``caller`` names the
+    function). A raw ``TypeError`` from the reader is missed by ``except MocapError``."""
+    wrong = [k for k in kwargs if k not in _reader_keywords(table[path.suffix.lower()])]
     if wrong:
         fits = {}  # the keywords -> the suffixes whose reader takes them
-        for suffix, other in READERS.items():
+        for suffix, other in table.items():
             fits.setdefault(_reader_keywords(other), []).append(suffix)
         said = "; ".join(f"{', '.join(sorted(sufs))}: {', '.join(k + '=' for k in kws) or 'none'}"
                          for kws, sufs in sorted(fits.items(), key=lambda kv: sorted(kv[1])))
-        raise MocapFormatError(path, f"load takes no {', '.join(k + '=' for k in wrong)} for {path.suffix.lower()} "
-                                     f"files; the keywords by format: {said}")
-    return reader(path, **kwargs)
+        raise MocapFormatError(path, f"{caller} takes no {', '.join(k + '=' for k in wrong)} for "
+                                     f"{path.suffix.lower()} files; the keywords by format: {said}")
 
 
 def _reader(kind: str):
@@ -102,8 +109,9 @@ def load_markers(path, **kwargs) -> MarkerSet:
     """Read a marker file (.c3d, .trc, or an npz written from a MarkerSet) as a :class:`MarkerSet`.
 
     Keyword arguments go to the reader: ``zeros_as_gaps`` (True, False, or
-    None to decide from the data) for .c3d and .trc. Raises
-    :class:`~mocapkit.errors.MocapFormatError` for a folder, an unknown suffix, a file
+    None to decide from the data) and ``units`` for .c3d and .trc; none for a marker npz. Raises
+    :class:`~mocapkit.errors.MocapFormatError` for a folder, an unknown suffix, a keyword the format's reader
+    does not take (one line naming the keywords by format, as :func:`load`), a file
     that is not a marker file (an npz holding a Motion) or any reader error.
     """
     path = Path(path)
@@ -111,11 +119,10 @@ def load_markers(path, **kwargs) -> MarkerSet:
     kind = suffix_kind(path, MARKER_FORMATS, "reading markers")
     if not path.is_file():
         raise (MocapFormatError(path, "not a regular file") if path.exists() else MissingFileError(path))
+    _check_keywords(path, kwargs, MARKER_FORMATS, "load_markers")
     if kind == "npz":
         from .npz import read_npz
 
-        if kwargs:
-            raise TypeError(f"marker npz files take no reader options, got {', '.join(kwargs)}")
         obj = read_npz(path)
         if not isinstance(obj, MarkerSet):
             raise MocapFormatError(path, "this npz holds a motion (joint angles), not marker trajectories")
