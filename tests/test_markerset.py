@@ -356,7 +356,7 @@ def test_repr_counts_markers_as_info_does(shared_data):
 
 def test_a_part_counts_its_own_zero_gaps(tmp_path):
     """Trial T1: 03_rolling.c3d[:700].zero_gaps was the whole file's 35,965 (the part has 6,909). A C3D part counts
-    those in its frames (source.stored_zeros); a TRC keeps no place for them, and its part counts 0."""
+    those in its frames (source.stored_zeros); a TRC keeps no place for them: its part's count cannot be known (None)."""
     from pathlib import Path
 
     from mocapkit.io import save_markers
@@ -369,4 +369,11 @@ def test_a_part_counts_its_own_zero_gaps(tmp_path):
     assert back[:120].zero_gaps == 20 and back[130:].zero_gaps == 10 and back[200:].zero_gaps == 0
     assert back[100:140:2].zero_gaps == 20 and back[110].zero_gaps == 1
     trc = load_markers(save_markers(take.with_positions(x, residuals=res), tmp_path / "zeros.trc"))
-    assert trc.zero_gaps == 40 and trc[:].zero_gaps == 40 and trc[:120].zero_gaps == 0
+    assert trc.zero_gaps == 40 and trc[:].zero_gaps == 40 and trc[:120].zero_gaps is None  # cannot be known
+    # a choice of markers counts its own too (it kept the whole take's 40): the C3D's by its stored zeros, chosen
+    # with the markers; a TRC's cannot be known but where every marker is chosen
+    label, others = back.labels[7], [lb for lb in back.labels if lb != back.labels[7]]
+    assert back.select([label]).zero_gaps == 40 and back.select(others).zero_gaps == 0
+    assert back.select([label, label]).zero_gaps == 80 and back.select(others[::-1] + [label]).zero_gaps == 40
+    assert back.select([label])[:120].zero_gaps == 20 and back.select(others)[:120].zero_gaps == 0
+    assert trc.select(others).zero_gaps is None and trc.select([label] + others).zero_gaps == 40

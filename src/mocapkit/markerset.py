@@ -394,10 +394,12 @@ class MarkerSet:
         then gives 0 where seen.
     source : MarkerSource or None
         File metadata a writer keeps (C3D parameters and analogs, TRC header).
-    zero_gaps : int
+    zero_gaps : int or None
         How many samples the reader found stored as exact (0, 0, 0) gaps and
         read as missing (see :func:`zero_gap_mask`); 0 when none or when asked to keep them. A part of
-        the take counts its own (:meth:`__getitem__`).
+        the take (:meth:`__getitem__`) and a choice of its markers (:meth:`select`) count their own where the
+        reader kept where they were (a C3D's :attr:`MarkerSource.stored_zeros`); None where that cannot be
+        known (a part of a TRC holding some: the reader keeps no place for them).
     cameras : int array (F, M) or None
         C3D camera masks: bit k (0-6) set where camera k saw the sample, as
         the file stores them; None when the file has none (TRC, npz).
@@ -419,7 +421,7 @@ class MarkerSet:
     reader: str = "ezc3d"
     residuals: np.ndarray | None = None
     source: MarkerSource | None = None
-    zero_gaps: int = 0
+    zero_gaps: int | None = 0
     cameras: np.ndarray | None = None
     notes: tuple[str, ...] = ()
     units_from: str = "file"
@@ -670,7 +672,12 @@ class MarkerSet:
         return dataclasses.replace(self, positions=new, residuals=residuals, cameras=cameras)
 
     def select(self, labels) -> "MarkerSet":
-        """The markers named in ``labels``, in that order."""
+        """The markers named in ``labels``, in that order.
+
+        ``zero_gaps`` counts those of the chosen markers (:meth:`_own_zero_gaps`: a C3D's
+        :attr:`MarkerSource.stored_zeros`, which is chosen with them); the whole take's count when every marker
+        is chosen once; None for a choice of a TRC's markers holding some, as it cannot be known which of
+        their missing samples they are."""
         idx = []
         for label in labels:
             if label not in self.labels:
@@ -679,10 +686,25 @@ class MarkerSet:
         res = None if self.residuals is None else self.residuals[:, idx]
         cams = None if self.cameras is None else self.cameras[:, idx]
         source = self.source
-        if source is not None and source.filled is not None:
-            source = dataclasses.replace(source, filled=source.filled[:, idx])
+        stored = None if source is None else source.stored_zeros
+        if stored is not None:
+            stored = stored[:, idx] if stored.shape[1] == self.num_markers else None
+        if source is not None:
+            filled = None if source.filled is None else source.filled[:, idx]
+            source = dataclasses.replace(source, filled=filled, stored_zeros=stored)
+        whole = sorted(idx) == list(range(self.num_markers))
         return dataclasses.replace(self, labels=tuple(labels), positions=self.positions[:, idx], residuals=res,
-                                   cameras=cams, source=source)
+                                   cameras=cams, source=source, zero_gaps=self._own_zero_gaps(stored, whole))
+
+    def _own_zero_gaps(self, stored, whole: bool) -> int | None:
+        """``zero_gaps`` of a part of this take (some frames: :meth:`__getitem__`; some markers: :meth:`select`):
+        the whole take's count when ``whole`` (every sample kept once) or when it is 0; else the samples
+        ``stored`` (the part's :attr:`MarkerSource.stored_zeros`, (F', M', 2), NaN but where a gap was stored
+        as (0, 0, 0)) holds; None where the reader kept no such place (a TRC), as which of the part's missing
+        samples were stored as zeros cannot be known."""
+        if whole or not self.zero_gaps:
+            return self.zero_gaps
+        return None if stored is None else int((~np.isnan(stored)).any(axis=-1).sum())
 
     def file_labels(self) -> tuple[str, ...]:
         """The labels a writer writes: the file's own (repeats included) while the markers are the file's, else ``labels``.
@@ -702,14 +724,13 @@ class MarkerSet:
         single index (one frame), as a Motion is sliced (:func:`mocapkit.motion.frame_slice`).
 
         ``zero_gaps`` counts those of the part's frames where the reader kept where they were (a C3D's
-        :attr:`MarkerSource.stored_zeros`); a part of a take that does not keep them (a TRC) counts 0, as it cannot
-        be known which of its missing samples they are (the whole take keeps its count)."""
+        :attr:`MarkerSource.stored_zeros`: :meth:`_own_zero_gaps`); a part of a take holding some that does not keep
+        them (a TRC) says None, as it cannot be known which of its missing samples they are (the whole take keeps
+        its count)."""
         key, fps = frame_slice(key, self.num_frames, self.fps, "markers")
         start, stop, step = key.indices(self.num_frames)
-        zero_gaps = self.zero_gaps
-        if (start, max(start, stop), step) != (0, self.num_frames, 1):
-            stored = None if self.source is None else self.source.stored_zeros
-            zero_gaps = 0 if stored is None else int((~np.isnan(stored[key])).any(axis=-1).sum())
+        stored = None if self.source is None or self.source.stored_zeros is None else self.source.stored_zeros[key]
+        zero_gaps = self._own_zero_gaps(stored, (start, max(start, stop), step) == (0, self.num_frames, 1))
         res = None if self.residuals is None else self.residuals[key]
         cams = None if self.cameras is None else self.cameras[key]
         source = self.source
