@@ -237,18 +237,43 @@ def test_a_reader_note_is_shown_by_clean_convert_and_clean_batch(tmp_path):
     assert (tmp_path / "d.trc").read_text().splitlines()[3].split("\t")[2::3][4:6] == [labels[4], labels[4]]
 
 
-@pytest.mark.parametrize("inp, out", [("m.c3d", "x.bvh"), ("m.trc", "x.npz"), ("131_01.bvh", "x.c3d")])
-def test_corrupt_says_it_takes_skeleton_takes_not_marker_files(tmp_path, inp, out):
-    # trial11: corrupt on a .c3d said "unknown suffix '.c3d' for writing"
+@pytest.mark.parametrize("inp, out, kind, said", [
+    ("m.c3d", "x.c3d", "noise", "m.c3d: --kind noise changes joint rotations, which a marker capture has none of; the "
+                                "kind that works on marker files (.c3d, .trc, marker .npz): gaps"),
+    ("m.npz", "x.npz", "spike", "m.npz: --kind spike changes joint rotations"),
+    ("m.trc", "x.trc", "gap", "m.trc: --kind gap is no corruption kind; the kind that works on marker files"),
+    ("131_01.bvh", "x.c3d", "noise", "x.c3d: a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers")])
+def test_corrupt_of_a_marker_file_takes_gaps_alone(tmp_path, inp, out, kind, said):
+    # trial11: corrupt on a .c3d said "unknown suffix '.c3d' for writing"; then it refused every marker file, while
+    # corrupt.gaps works on a MarkerSet: a rotation kind is refused naming the file and the kind that works
     source = tmp_path / inp
     if inp.endswith(".bvh"):
         shutil.copy(SAMPLE, source)
     else:
         save_markers(load_markers(CMU)[:20], source)
-    code, _, err = run("corrupt", source, tmp_path / out, "--kind", "noise")
-    assert code != 0 and one_error_line(err)
-    assert "corrupt takes skeleton takes (.bvh, .amc, .npz), not marker files (.c3d, .trc)" in err
+    code, _, err = run("corrupt", source, tmp_path / out, "--kind", kind)
+    assert code != 0 and one_error_line(err) and said in err
     assert not (tmp_path / out).exists()
+
+
+def test_corrupt_makes_gaps_in_a_marker_file_with_its_ground_truth(tmp_path):
+    """`corrupt IN.c3d OUT --kind gaps` was refused; it writes OUT (.c3d, .trc) and an (F, M) mask over OUT's markers,
+    with their labels, that `info` reads as markers: the samples made missing, and no other changed."""
+    from mocapkit.io.masks import read_mask
+
+    take = load_markers(mocapkit_sample("Eb015pr.c3d"))
+    for out, truth in ((tmp_path / "g.c3d", tmp_path / "g.mask.npz"), (tmp_path / "g.trc", tmp_path / "t.mask.npz")):
+        code, said, err = run("corrupt", mocapkit_sample("Eb015pr.c3d"), out, "--kind", "gaps", "--seed", "1",
+                              "--mask", truth)
+        assert code == 0, err
+        back, mask = load_markers(out), read_mask(truth, frames=take.num_frames)
+        assert mask.shape == (450, 26) and 0 < mask.sum() < mask.size // 10
+        assert f"{int(mask.sum())} marker samples made missing" in said
+        assert tuple(np.load(truth)["labels"]) == back.labels == take.labels
+        assert np.array_equal(back.missing(), take.missing() | mask)
+        assert np.allclose(back.positions[~mask], take.positions[~mask], atol=1e-3, equal_nan=True)
+    code, said, _ = run("info", tmp_path / "g.mask.npz")
+    assert code == 0 and "markers    26" in said and f"{int(mask.sum())} marker samples in" in said
 
 
 def mocapkit_sample(name: str) -> str:

@@ -193,7 +193,7 @@ def zeros_option(who: str = "Marker files"):
 
 
 def keep_modelled_option():
-    """The ``--keep-modelled`` option of ``convert`` and ``clean``: a .trc output written from a C3D keeps its
+    """The ``--keep-modelled`` option of ``convert``, ``corrupt`` and ``clean``: a .trc output written from a C3D keeps its
     modelled quantities (angles, forces, moments, powers) as points (:func:`mocapkit.io.save_markers`)."""
     return typer.Option(
         False, "--keep-modelled",

@@ -178,9 +178,9 @@ def convert(
 
 
 def corrupt(
-    inp: Path = typer.Argument(..., metavar="IN", help="Clean input take (.bvh, .amc, .npz)."),
-    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh, .amc or .npz; gaps need .npz)."),
-    kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap"),
+    inp: Path = typer.Argument(..., metavar="IN", help="Clean input take (.bvh, .amc, .npz) or marker file (.c3d, .trc, marker .npz: --kind gaps)."),
+    out: Path = typer.Argument(..., metavar="OUT", help="Corrupted output (.bvh, .amc or .npz; gaps need .npz); markers: .c3d, .trc or .npz."),
+    kind: str = typer.Option(..., "--kind", help="noise | uniform | bias | spatial | gaps | errors, or one error kind: spike | flip | freeze | drift | swap; a marker file takes gaps"),
     amount: Optional[float] = typer.Option(
         None, "--amount", help="noise, uniform, bias: std as a fraction of each channel's std (0.1/0.5/0.9; a "
                                "channel that crosses +-180 deg: the std of its motion, read on the circle); "
@@ -194,6 +194,7 @@ def corrupt(
     asf: Optional[Path] = asf_option("input(s)"),
     amc_fps: Optional[float] = amc_fps_option("input(s)"),
     unit: Optional[str] = unit_option("input(s)"),
+    keep_modelled: bool = keep_modelled_option(),
     overwrite: bool = overwrite_option(),
 ) -> None:
     """Corrupt IN with known ground truth; writes OUT and a .mask.npz of what changed."""
@@ -201,19 +202,32 @@ def corrupt(
     from .. import io
     from ..io.masks import mask_path_for, write_mask
     from ..io.outputs import removed_on_failure
-    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
+    from ..markerset import MarkerSet
 
     if amount is not None and not (math.isfinite(amount) and amount > 0):  # one rule for every kind, before any work
         raise MocapError(f"--amount must be a finite number greater than 0, got {amount:g}")
-    marker_files = [p for p in (inp, out) if p.suffix.lower() in (".c3d", ".trc")]
-    if marker_files:  # before the output guard: the command does not take this kind of file at all
-        raise MocapFormatError(marker_files[0], "corrupt takes skeleton takes (.bvh, .amc, .npz), not marker files "
-                                                "(.c3d, .trc)")
+    # before the output guard: a marker file (by suffix; a marker npz once read) takes gaps alone, written as markers
+    if inp.suffix.lower() in (".c3d", ".trc"):
+        _check_marker_kind(inp, kind)
+        io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+    elif inp.suffix.lower() != ".npz" and out.suffix.lower() in (".c3d", ".trc"):
+        raise MocapFormatError(out, "a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers")
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
+    m = load_take(inp, asf, fps=amc_fps, unit=unit, unit_option="--unit")
+    if isinstance(m, MarkerSet):
+        _check_marker_kind(inp, kind)
+        io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
+        if keep_modelled:
+            io.check_keep_modelled(inp, out)
+        return _corrupt_markers(m, inp, out, mask_path, kind, seed, amount, keep_modelled, overwrite)
+    if keep_modelled:
+        raise MocapError("--keep-modelled applies to marker files; IN is a motion")
+    if out.suffix.lower() in (".c3d", ".trc"):
+        raise MocapFormatError(out, "a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers")
     io.suffix_kind(out, io.WRITERS, "writing")
-    m = load_motion(inp, asf, purpose="corrupt", fps=amc_fps, unit=unit, unit_option="--unit")
     io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
     try:
@@ -231,6 +245,50 @@ def corrupt(
                   f"{frames} of {plural(m.num_frames, 'frame')}")
     for r in records:
         console.print(f"  {corrupt_mod.describe_error(r, m, bad)}")
+
+
+def _check_marker_kind(inp: Path, kind: str) -> None:
+    """Refuse, in one line naming the marker file ``inp``, a ``--kind`` other than gaps: the other kinds turn joint
+    rotations, which a marker capture has none of (:func:`mocapkit.corrupt.gaps` takes a MarkerSet)."""
+    from .. import corrupt as corrupt_mod
+
+    if kind != "gaps":
+        known = kind in corrupt_mod.KINDS + corrupt_mod.ERROR_KINDS
+        raise MocapFormatError(inp, f"--kind {kind} " + ("changes joint rotations, which a marker capture has none of"
+                                                         if known else "is no corruption kind")
+                               + "; the kind that works on marker files (.c3d, .trc, marker .npz): gaps")
+
+
+def _corrupt_markers(m, inp: Path, out: Path, mask_path: Path, kind: str, seed: int, amount, keep_modelled: bool,
+                     overwrite: bool) -> None:
+    """``corrupt --kind gaps`` of a marker capture (:func:`mocapkit.corrupt.gaps`: per-marker runs, positions NaN,
+    every marker but the modelled points and unlabelled trajectories): writes OUT (.c3d, .trc or .npz) and the
+    ground truth, an (F, M) mask over OUT's points with their ``labels`` (:func:`mocapkit.io.masks.write_mask`; a
+    .trc leaves a C3D's modelled quantities out unless ``keep_modelled``, and its mask with them)."""
+    import numpy as np
+
+    from .. import corrupt as corrupt_mod
+    from .. import io
+    from ..io.masks import write_mask
+    from ..io.outputs import removed_on_failure
+
+    params = {} if amount is None else {"amount": amount}
+    try:
+        bad, mask = corrupt_mod.corrupt(m, kind=kind, seed=seed, **params)
+    except (TypeError, ValueError) as exc:
+        raise MocapError(f"corrupt --kind {kind}: {exc}") from None
+    kept = np.ones(m.num_markers, dtype=bool)
+    if out.suffix.lower() == ".trc" and not keep_modelled:
+        kept = m.quantities() == ""  # the points write_trc keeps
+    with removed_on_failure([out, mask_path], overwrite=overwrite, marker=mask_path):  # the ground truth last
+        io.save_markers(bad, out, keep_modelled=keep_modelled, overwrite=overwrite)
+        write_mask(mask_path, mask[:, kept], [lb for lb, k in zip(bad.labels, kept) if k], kind=kind, seed=seed,
+                   params=params, markers=True)
+    frames = int(mask.any(axis=1).sum())
+    console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'marker sample')} made missing in "
+                  f"{frames} of {plural(m.num_frames, 'frame')}")
+    for note in io.marker_notes(bad, out, inp, keep_modelled=keep_modelled):
+        console.print(f"note: {note}")
 
 
 def plot(
@@ -392,9 +450,10 @@ def _info_of_own_file(path: Path) -> bool:
         from ..io.masks import read_mask
 
         mask = read_mask(path)
+        what = "marker" if "labels" in keys else "joint"  # a marker capture's gaps (corrupt --kind gaps)
         print_fields([("file", str(path)), ("kind", "corruption mask (mocapkit corrupt)"),
-                      ("frames", str(mask.shape[0])), ("joints", str(mask.shape[1])),
-                      ("corrupted", f"{plural(int(mask.sum()), 'joint sample')} in "
+                      ("frames", str(mask.shape[0])), (what + "s", str(mask.shape[1])),
+                      ("corrupted", f"{plural(int(mask.sum()), what + ' sample')} in "
                                     f"{plural(int(mask.any(axis=1).sum()), 'frame')}")])
         return True
     if {"mdm", "flags"} <= keys and "format_version" not in keys:

@@ -6,7 +6,9 @@ beside the corrupted take so that a detector or cleaner can be scored
 against the truth later (``mocapkit plot`` shades it). The file holds:
 
 - ``mask`` bool (F, J): True where a joint sample was changed;
-- ``joint_names`` (J,) str, ``kind`` and ``seed`` of the corruption;
+- ``joint_names`` (J,) str, ``kind`` and ``seed`` of the corruption; of a marker capture's gaps
+  (``corrupt --kind gaps`` of a .c3d, .trc or marker .npz), ``labels`` (M,) str in its place, and ``mask``
+  (F, M) True where a marker sample was made missing;
 - ``params``: the corruption's parameters as JSON;
 - ``errors``: the error records as a JSON list of objects.
 
@@ -52,16 +54,18 @@ def error_record(record) -> dict:
 
 
 def write_mask(path, mask: np.ndarray, joint_names: Sequence[str], *, kind: str, seed, params: dict | None = None,
-               records: Sequence = ()) -> Path:
-    """Write the ground truth of one corruption to ``path`` atomically; returns the path."""
+               records: Sequence = (), markers: bool = False) -> Path:
+    """Write the ground truth of one corruption to ``path`` atomically; returns the path. ``markers``: ``mask`` is
+    (F, M) over a marker capture's markers and ``joint_names`` their labels, stored as ``labels``."""
     from . import atomic_write
 
     path = Path(path)
+    names = {"labels" if markers else "joint_names": np.array(list(joint_names), dtype=str)}
     with atomic_write(path, "wb") as fh:
         np.savez_compressed(
             fh,
             mask=np.asarray(mask, dtype=bool),
-            joint_names=np.array(list(joint_names)),
+            **names,
             kind=np.array(kind),
             seed=np.array(seed if seed is not None else -1),
             params=np.array(json.dumps(params or {})),
