@@ -11,7 +11,8 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import detect_take, take_params
-from mocapkit.cleaning.ssa.guard import angular_acceleration, end_roughness, guard_joint, held, rougher_end, roughness
+from mocapkit.cleaning.ssa.guard import (angular_acceleration, end_roughness, guard_joint, held, on_path_ends, pair_left,
+                                         rougher_end, roughness)
 
 
 def _turn(angles_deg: np.ndarray) -> np.ndarray:
@@ -93,6 +94,43 @@ def test_a_bridge_that_turns_a_still_joint_fast_is_left():
     assert [(s, e) for s, e, _ in bad] == [(20, 30)] and "bridge" in bad[0][2]
 
 
+def test_a_runs_end_frame_whose_break_is_its_neighbours_is_on_the_path():
+    """A two-frame spike (frames 20-21) on a steady turn breaks at the frames beside it too: flagged from 19 or to
+    22, that frame is on the joint's own path (its outer side turns smoothly into it); a step's first frame is not."""
+    F = 40
+    truth = np.arange(F) * 3.0
+    spike = _turn(np.where((np.arange(F) >= 20) & (np.arange(F) < 22), truth + 50.0, truth))
+    flags = np.zeros(F, dtype=bool)
+    flags[19:22] = True
+    assert np.flatnonzero(on_path_ends(spike, flags)).tolist() == [19]
+    flags[:] = False
+    flags[20:23] = True
+    assert np.flatnonzero(on_path_ends(spike, flags)).tolist() == [22]
+    flags[:] = False
+    flags[20:22] = True  # the spike's own frames: nothing on the path
+    assert not on_path_ends(spike, flags).any()
+    step = _turn(np.where(np.arange(F) >= 20, truth + 50.0, truth))  # an offset from frame 20 on
+    flags[:] = False
+    flags[20:30] = True
+    assert not on_path_ends(step, flags).any()
+
+
+def test_a_partners_run_over_the_same_frames_is_left_with_the_run_left():
+    changed = np.zeros((50, 3), dtype=bool)
+    changed[10:20, 0] = True  # left upper arm, left by the guard
+    changed[12:18, 1] = changed[30:35, 1] = True  # its partner: one run over the same frames, one elsewhere
+    changed[10:20, 2] = True  # unpaired
+    out = pair_left(changed, [(0, 10, 20)], np.array([1, 0, 2]))
+    assert [(j, s, e) for j, s, e, _ in out] == [(1, 12, 18)] and "partner" in out[0][3]
+    assert pair_left(changed, [(2, 10, 20)], np.array([1, 0, 2])) == []
+    replaced = np.array(changed)
+    replaced[15, 1] = False  # part of the partner's run put back by its own motion (a swap exchanged, an offset)
+    assert pair_left(changed, [(0, 10, 20)], np.array([1, 0, 2]), replaced) == []
+    changed[12:18, 1] = False
+    changed[16:40, 1] = True  # a partner's run over other frames mostly: its own
+    assert pair_left(changed, [(0, 10, 20)], np.array([1, 0, 2])) == []
+
+
 def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_names(shared_data):
     """HDM05 grabHighR (bk, 010) with real-style errors: a flip of the right toes (frames 46-104) had its clean
     side (23-45) flagged, which the repair bridged across the flip: 0 -> 90 degrees off the clean take."""
@@ -131,3 +169,47 @@ def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
     new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
     assert np.array_equal(new.rotations[205:212, j], ref.rotations[205:212, j])
     assert any(r.joint == "rradius" and r.start <= 205 and r.end >= 212 and "exit" in r.reason for r in left)
+
+
+def _bandai_punch():
+    """Bandai Namco's dataset-1_punch_normal_002 (30 fps), from the unpacked archive (benchmarks/_bandai.py)."""
+    import os
+    from pathlib import Path
+
+    root = Path(os.environ.get("MOCAPKIT_BANDAI_CACHE", Path.home() / ".cache" / "mocapkit" / "bandai_namco"))
+    path = root / "dataset" / "Bandai-Namco-Research-Motiondataset-1" / "data" / "dataset-1_punch_normal_002.bvh"
+    if not path.is_file():
+        pytest.skip("the Bandai Namco archive is not unpacked")
+    return mocapkit.load(path)
+
+
+def test_a_spike_is_repaired_without_the_clean_frame_before_it():
+    """`corrupt --kind spike --seed 3` of the punch: the right upper arm turned 55.8 deg at frames 251-252, flagged
+    from 250, whose break is its neighbour's. Repaired from 250, the clean frame 250 came out 16.8 deg off the clean
+    take and 251 37.6; the left knee's clean frame 45 (spike at 46) 8.2."""
+    ref = _bandai_punch()
+    bad, mask, _ = corrupt.corrupt(ref, kind="spike", seed=3)
+    det = detect_take(bad, None, params=take_params()).detection
+    out, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    off = np.degrees(R.geodesic_angle(out.rotations, ref.rotations))
+    for name, clean, spike in (("UpperArm_R", 250, [251, 252]), ("LowerLeg_L", 45, [46])):
+        j = ref.skeleton.index(name)
+        assert det.flags[clean, j] and not mask[clean, j]  # flagged, uncorrupted
+        assert np.array_equal(out.rotations[clean, j], bad.rotations[clean, j])
+        assert any(r.joint == name and r.start == clean and "own path" in r.reason for r in left)
+        assert (off[spike, j] < np.degrees(R.geodesic_angle(bad.rotations, ref.rotations))[spike, j] - 20.0).all()
+    assert off[251:253, ref.skeleton.index("UpperArm_R")].max() < 35.0  # 37.6 and 25.3 before
+
+
+def test_a_swap_flagged_as_two_digressions_is_put_back_as_a_swap():
+    """`corrupt --kind swap --seed 7` of the punch: the upper arms swapped over frames 150-164, flagged by their
+    breaks, not as a swap. The left arm was repaired from neighbour words (24.6 deg off the clean take) and the
+    right one left holding the left arm's motion; exchanged back, both are the clean take's."""
+    ref = _bandai_punch()
+    bad, _, _ = corrupt.corrupt(ref, kind="swap", seed=7)
+    det = detect_take(bad, None, params=take_params()).detection
+    out, _ = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    for name in ("UpperArm_L", "UpperArm_R"):
+        j = ref.skeleton.index(name)
+        assert not det.swaps[150:165, j].any()
+        assert np.degrees(R.geodesic_angle(out.rotations[150:165, j], ref.rotations[150:165, j])).max() < 0.01

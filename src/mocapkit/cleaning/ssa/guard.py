@@ -21,6 +21,24 @@ take is cleaned, but the take's own continuity is. A run of changed cells of one
   of the joint, it is the error spread over clean frames. (A bound closer to the joint's own peak left
   good bridges of freezes on fast knees and elbows, whose fastest frames are the flagged ones.)
 
+Two more rules, of the run's frames and of a left/right pair rather than of its joins:
+
+* **A run's extent stops at the break that bounds it** (:func:`on_path_ends`): the first flagged frame of a run
+  whose step into the next frame is the break, while the frame before it continues into it smoothly, lies on
+  the joint's own path, and is no error's: the break that flagged it is its neighbour's (a spike of k frames
+  breaks at the frame before it too, the midpoint residual of a frame beside it; likewise the last frame,
+  the frame after it). Repaired, it took a bridge across a fast turn: a Bandai Namco punch at 30 fps, a spike
+  on the right upper arm at frames 251-252, was repaired from frame 250, which came out 16.8 deg off the clean
+  take and left 251 37.6 deg off; the left knee's spike at frame 46 put the clean frame 45 8.2 deg off. Such
+  a frame is left as it came (named, as below), and the run repaired without it.
+* **A left/right pair is put back together or not at all** (:func:`pair_left`): where the guard leaves a run
+  of one joint of a pair (:func:`~mocapkit.joints.mirror_pairs`), the partner's repaired runs over the same
+  frames are left too. Two sides that digress over the same frames are most often one error of the pair (a
+  swap the detection did not name as one); half repaired, one limb of the pair takes a neighbour word's motion
+  while the other still holds the first one's: the same punch with its upper arms swapped over frames
+  150-164 had its left arm repaired (24.6 deg off the clean take) and its right one left holding the left
+  arm's motion.
+
 A run that fails is given back its input values bit for bit and named (:class:`LeftRun`): "left: repair not
 better than the take". A rule of this library, not of the paper. (Neighbour-word evidence was tried as a
 third rule, output against input distance from the words' medoid: the blend that makes a run meet the take
@@ -38,8 +56,8 @@ from ... import rotations as R
 from ..ik import contact_segments
 from ...words import frame_span
 
-__all__ = ["LEFT_PREFIX", "LeftRun", "angular_acceleration", "end_roughness", "guard_joint", "held", "rougher_end",
-           "roughness"]
+__all__ = ["LEFT_PREFIX", "LeftRun", "ON_PATH_RATIO", "angular_acceleration", "end_roughness", "guard_joint", "held",
+           "on_path_ends", "pair_left", "rougher_end", "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
@@ -48,6 +66,10 @@ ROUGHNESS_TOL_DEG = 2.0
 #: (:func:`rougher_end`): the joins of good repairs on the HDM05 and CMU takes tuned on added up to 2.4, the steps
 #: put where flags ran on past an error over clean frames 6-9
 END_TOL_DEG = 5.0
+#: a run's end frame lies on the joint's own path (:func:`on_path_ends`) when the angular acceleration on its
+#: outer side is under this share of the one at the frame (the punch's upper arm: 7.9 against 76.4 deg/frame^2,
+#: its knee 4.0 against 38.6; a swap's or an offset's first frame, off the path, has its step on its outer side)
+ON_PATH_RATIO = 0.25
 #: a bridge may turn up to this many degrees a frame whatever the joint does elsewhere (at 30 fps, 300 deg/s) ...
 BRIDGE_MIN_DEG = 10.0
 #: ... and up to this many times the joint's fastest turn between two unflagged frames
@@ -178,3 +200,70 @@ def guard_joint(
         if rough_end is not None:
             bad.append((s, e, rough_end))
     return bad
+
+
+def on_path_ends(q: np.ndarray, flags: np.ndarray) -> np.ndarray:
+    """(F,) bool: the frames of ``flags`` (F,) bool, one joint's flagged frames to replace, that lie on the joint's
+    own path at the ends of their runs (module docstring), to be left as they came.
+
+    ``q`` (F, 4) the joint's input track. A run's first frame ``s`` is on the path when the angular acceleration
+    (:func:`angular_acceleration`) at ``s - 1``, the turn from the frames before it into ``s``, is under
+    :data:`ON_PATH_RATIO` times the one at ``s`` (the turn from ``s`` into the run's next frame), and that is a
+    step (over :data:`END_TOL_DEG`); its last frame ``l`` likewise with ``l + 1`` on the outer side. At most one
+    frame at each end, never a whole run, and never at the take's first or last two frames (no acceleration
+    there on the outer side).
+    """
+    flags = np.asarray(flags, dtype=bool)
+    out = np.zeros(len(flags), dtype=bool)
+    runs = contact_segments(flags)
+    if not runs:
+        return out
+    acc = angular_acceleration(q)
+    F = len(flags)
+    for s, e in runs:
+        if e - s < 2:
+            continue
+        if s >= 2 and acc[s] > END_TOL_DEG and acc[s - 1] < ON_PATH_RATIO * acc[s]:
+            out[s] = True
+        last = e - 1
+        if last + 1 <= F - 2 and last - 1 > s - (0 if out[s] else 1) and acc[last] > END_TOL_DEG \
+                and acc[last + 1] < ON_PATH_RATIO * acc[last]:
+            out[last] = True
+    return out
+
+
+def pair_left(changed: np.ndarray, left: list[tuple[int, int, int]], partner,
+              replaced: np.ndarray | None = None) -> list[tuple[int, int, int, str]]:
+    """The runs to leave because the guard left their left/right partner's run over the same frames (module
+    docstring), as ``(joint, start, end, reason)``, until none is added.
+
+    ``changed`` (F, J) bool: the cells the repair changed (the runs judged are each joint's maximal runs);
+    ``left`` ``(joint, start, end)``: the runs the guard left (the frames ``start .. end - 1``), whose partner's
+    runs over the same frames (sharing half the frames the two span or more) are judged; ``partner`` (J,)
+    int: each joint's partner (:func:`~mocapkit.joints.mirror_pairs`, itself when unpaired); ``replaced`` (F, J)
+    bool or None (all): the cells replaced from neighbour words or bridged. Only a partner's run replaced so
+    throughout is left: a run that the take's own motion puts back in part (a swap exchanged back, an offset
+    taken away) is confirmed at that part's joins, whatever its partner's repair did (HDM05 bk throwBasketball
+    004 with ``real_errors`` seed 1002: the left forearm's swap exchanged back, 27.0 -> 0.6 deg off the clean
+    take, while the right one's flags over clean frames before the swap were left; dg lieDownFloor 011, seed
+    1001: the left femur's swap over frames 95-111, 129.6 -> 1.0 deg off, while the right femur's 58 frames were
+    left: not the same frames).
+    """
+    partner = np.asarray(partner, dtype=np.int64)
+    replaced = np.ones(changed.shape, dtype=bool) if replaced is None else np.asarray(replaced, dtype=bool)
+    todo = list(left)
+    done: set[tuple[int, int, int]] = set(left)
+    out = []
+    while todo:
+        j, s, e = todo.pop()
+        p = int(partner[j])
+        if p == j or not changed[s:e, p].any():
+            continue
+        for a, b in contact_segments(changed[:, p]):
+            same = 2 * (min(b, e) - max(a, s)) >= max(b, e) - min(a, s)  # over the same frames: half their union
+            if same and (p, a, b) not in done and replaced[a:b, p].all():
+                done.add((p, a, b))
+                todo.append((p, a, b))
+                out.append((p, a, b, f"its left/right partner's repair over frames {s}-{e - 1} was left: a pair is "
+                                     "put back together or not at all"))
+    return out

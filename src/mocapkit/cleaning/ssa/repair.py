@@ -26,9 +26,9 @@ from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
-from .guard import LeftRun, guard_joint
+from .guard import LeftRun, guard_joint, on_path_ends, pair_left
 from .negligible import negligible_runs
-from .swap_exchange import swap_exchanges
+from .swap_exchange import pair_exchange, swap_exchanges
 from .undo import undone_offsets
 from ...words import plural
 
@@ -212,7 +212,10 @@ def repair_with_left(
     before contacts and foot skate (:mod:`~mocapkit.cleaning.ssa.guard`): a run that joins the take less
     smoothly than the input did, a bridge turning far faster than the joint does anywhere else, or a run that
     moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), is given
-    back its input values bit for bit; ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
+    back its input values bit for bit; so is a run's end frame that lies on the joint's own path (its break its
+    neighbour's), the run repaired without it; and where one side of a left/right pair is given back while its
+    partner digresses over the same frames, the pair is exchanged back as a swap where that joins the take, else
+    the partner's run over those frames is given back too (:func:`_guard`); ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
     ``motion``). Without it every flagged cell is repaired as above and ``left`` is empty.
     """
     if not isinstance(detection, Detection):
@@ -267,8 +270,14 @@ def repair_with_left(
                                            mirror_pairs(motion.skeleton.joint_names))
         base[exchanged] = values[exchanged]
         undone |= exchanged
+    # a run's end frame that lies on the joint's own path is no error's: its break is the next frame's (guard.py)
+    on_path = np.zeros(flags.shape, dtype=bool)
+    if guard:
+        for j in np.flatnonzero((flags & ~undone).any(axis=0)):
+            on_path[:, j] = on_path_ends(motion.rotations[:, j], flags[:, j] & ~undone[:, j])
+    todo = flags & ~on_path
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
-    fi, ji = np.nonzero(flags & ~undone)
+    fi, ji = np.nonzero(todo & ~undone)
     for f, j in zip(fi, ji):
         g = int(detection.best_group[f, j])
         if g < 0:
@@ -330,8 +339,8 @@ def repair_with_left(
     # flip, not undo it)
     new[undone] = base[undone]
     bridged = np.zeros(flags.shape, dtype=bool)
-    for j in np.flatnonzero((flags & ~placed & ~undone).any(axis=0)):
-        bridged[:, j] = _bridge(new[:, j], flags[:, j] & ~placed[:, j] & ~undone[:, j])
+    for j in np.flatnonzero((todo & ~placed & ~undone).any(axis=0)):
+        bridged[:, j] = _bridge(new[:, j], todo[:, j] & ~placed[:, j] & ~undone[:, j])
         placed[bridged[:, j], j] = True
     window = window_frames(blend_s, motion.fps, 2)
     out_rot = base
@@ -339,14 +348,7 @@ def repair_with_left(
         out_rot[:, j] = _blend_runs(base[:, j], new[:, j], placed[:, j], window)
     left: list[LeftRun] = []
     if guard:  # a run the take shows to be no better than its input is given back as it was (guard.py)
-        names = motion.skeleton.joint_names
-        for j in np.flatnonzero((placed | undone).any(axis=0)):
-            changed = np.any(out_rot[:, j] != motion.rotations[:, j], axis=-1)
-            tiny = negligible_runs(motion.rotations[:, j], out_rot[:, j], changed)  # (negligible.py)
-            worse = guard_joint(motion.rotations[:, j], out_rot[:, j], changed, bridged[:, j], flags[:, j])
-            for s, e, why in tiny + [r for r in worse if r[:2] not in {t[:2] for t in tiny}]:
-                out_rot[s:e, j] = motion.rotations[s:e, j]
-                left.append(LeftRun(names[j], int(s), int(e), why))
+        left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path)
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from .. import ik
@@ -358,6 +360,77 @@ def repair_with_left(
     if foot_skate:
         out = _foot_skate(motion, out, flags)
     return out, tuple(left)
+
+
+def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.ndarray, undone: np.ndarray,
+           bridged: np.ndarray, on_path: np.ndarray) -> list[LeftRun]:
+    """The repair guard (:mod:`~mocapkit.cleaning.ssa.guard`) on ``out_rot`` (F, J, 4), the repaired rotations,
+    changed in place: each run it fails given back its input values; the runs left, in order.
+
+    ``flags`` (F, J): the flagged cells; ``replaced``: those written from neighbour words or bridged; ``undone``:
+    those put back by the take's own motion (an offset taken away, a swap exchanged back); ``bridged``: the
+    bridged ones; ``on_path``: the flagged frames at the runs' ends left on the joint's own path
+    (:func:`~mocapkit.cleaning.ssa.guard.on_path_ends`). A run of one side of a left/right pair that fails while
+    its partner digresses over the same frames is put back as a swap where the mirrored exchange joins the take
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else its partner's runs over those frames
+    that hold a replaced cell are left too (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
+    """
+    orig = motion.rotations
+    names = motion.skeleton.joint_names
+    left = [LeftRun(names[j], int(f), int(f) + 1, "on the joint's own path: the break there is the next frame's")
+            for j, f in zip(*np.nonzero(on_path.T))]
+    changed = np.any(out_rot != orig, axis=-1)
+    runs: dict[tuple[int, int, int], str] = {}  # (joint, start, end) -> why, the runs given back
+    failed = []
+    for j in np.flatnonzero((replaced | undone).any(axis=0)):
+        tiny = negligible_runs(orig[:, j], out_rot[:, j], changed[:, j])  # (negligible.py)
+        worse = guard_joint(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j], flags[:, j])
+        worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
+        failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
+        for s, e, why in tiny + worse:
+            runs[int(j), int(s), int(e)] = why
+            out_rot[s:e, j] = orig[s:e, j]
+    partner = mirror_pairs(names)
+    mirrored = None
+    unresolved = []
+    for j, s, e in failed:  # a pair that digresses over the same frames: put back as a swap where that joins
+        p = int(partner[j])
+        if p == j or not flags[s:e, p].any():
+            continue
+        if mirrored is None:
+            mirrored = mirrored_rotations(motion)
+        got = pair_exchange(orig, mirrored, flags, j, s, e, partner)
+        if got is None:
+            unresolved.append((j, s, e))
+            continue
+        a, b = got
+        trial = np.array(out_rot[:, [j, p]])
+        trial[a : b + 1] = mirrored[a : b + 1, [j, p]]
+        ok = True
+        for i, k in enumerate((j, p)):
+            moved = np.any(trial[:, i] != orig[:, k], axis=-1)
+            ran = [r for r in contact_segments(moved) if r[0] <= a and r[1] > b]
+            bad = guard_joint(orig[:, k], trial[:, i], moved, np.zeros(len(moved), dtype=bool), flags[:, k])
+            ok &= not any(r[:2] in {x[:2] for x in bad} for r in ran)
+        if not ok:
+            unresolved.append((j, s, e))
+            continue
+        out_rot[:, [j, p]] = trial
+        for k in (j, p):  # the runs given back within the exchange are repaired now: what is left of them stays
+            for key in [key for key in runs if key[0] == k and key[1] <= b and key[2] > a]:
+                why = runs.pop(key)
+                for lo, hi in ((key[1], a), (b + 1, key[2])):
+                    if hi > lo:
+                        runs[k, lo, hi] = why
+    changed = np.any(out_rot != orig, axis=-1)
+    for k, s, e in runs:
+        changed[s:e, k] = True  # the runs given back were changed: pair_left reads the runs as the repair made them
+    for j, s, e, why in pair_left(changed, unresolved, partner, replaced):
+        if (j, s, e) not in runs:
+            runs[j, s, e] = why
+            out_rot[s:e, j] = orig[s:e, j]
+    left += [LeftRun(names[j], s, e, why) for (j, s, e), why in runs.items()]
+    return left
 
 
 def _medoid_words(an: Analysis, src, full, groups, words, candidates: dict, N: int, M: int) -> dict:

@@ -13,6 +13,10 @@ on PyMO's AV_8Walk_Meredith (HumanIK rig, inches) a swap of both arms over frame
 A run is exchanged only where the exchange joins the take: for both joints, at each end of the run that is
 not the take's end, the step between the exchanged value and the frame beside the run is under ``ratio``
 times the step the input makes there (the swap's own break). Elsewhere the run is left to the neighbour words.
+
+A pair that detection did not name a swap is tried the same way where the repair guard leaves one side and its
+partner digresses over the same frames (:func:`pair_exchange`): a swap the detection took for two digressions
+(flagged by their breaks) was otherwise repaired on one side from neighbour words and left on the other.
 """
 
 from __future__ import annotations
@@ -22,7 +26,7 @@ import numpy as np
 from ... import rotations as R
 from ..runs import true_runs
 
-__all__ = ["swap_exchanges", "SWAP_JOIN_RATIO"]
+__all__ = ["pair_exchange", "swap_exchanges", "SWAP_JOIN_RATIO"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -75,3 +79,45 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
                 cells[a : b + 1, [j, p]] = True
     values[cells] = mirrored[cells]
     return values, cells
+
+
+def pair_exchange(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.ndarray, joint: int, start: int,
+                  end: int, partner, ratio: float = SWAP_JOIN_RATIO) -> tuple[int, int] | None:
+    """The frames ``(a, b)`` (inclusive) over which ``joint`` and its partner, exchanged with their mirrored
+    rotations, join the take at both ends, or None.
+
+    The frames tried are the flagged runs (``flags`` (F, J) bool) of either joint that overlap ``start .. end -
+    1`` (a run of ``joint`` the repair guard left), the longest first: a swap's two sides are flagged over
+    frames that need not agree, and its breaks bound the one right. The exchange joins where, for both joints,
+    at each end of the run that is not the take's, the angular acceleration at the join
+    (:func:`~mocapkit.cleaning.ssa.guard.end_roughness`) is under ``ratio`` times the input's there. Not
+    :func:`swap_exchanges`' test of steps: a fast limb at 30 fps moves 10 degrees a frame, as much as its
+    exchanged value steps from the frame beside it (a Bandai Namco punch's upper arms swapped over frames
+    150-164: the right one steps 10.1 deg into frame 165 exchanged, 17.7 as swapped), while a swap's step is a
+    jolt no limb makes and the exchange takes it away (there 18.3 against 2-5 deg/frame^2 around it).
+    ``rotations``, ``mirrored``, ``partner``: as :func:`swap_exchanges` (``mirrored`` None: a rig that cannot
+    be mirrored, None).
+    """
+    from .guard import angular_acceleration, end_roughness
+
+    p = int(np.asarray(partner)[joint])
+    if mirrored is None or p == joint:
+        return None
+    q = np.asarray(rotations, dtype=np.float64)
+    mirrored = np.asarray(mirrored, dtype=np.float64)
+    F = len(q)
+    runs = {(a, b) for k in (joint, p) for a, b in true_runs(np.asarray(flags[:, k], dtype=bool))
+            if a < end and b >= start}
+    for a, b in sorted(runs, key=lambda r: (r[0] - r[1], r[0])):
+        if a == 0 and b == F - 1:
+            continue
+        ok = True
+        for k in (joint, p):
+            track = q[:, k].copy()
+            track[a : b + 1] = mirrored[a : b + 1, k]
+            before = end_roughness(angular_acceleration(q[:, k]), a, b + 1)
+            after = end_roughness(angular_acceleration(track), a, b + 1)
+            ok &= all(o < ratio * i for o, i, inside in zip(after, before, (a > 0, b < F - 1)) if inside)
+        if ok:
+            return a, b
+    return None
