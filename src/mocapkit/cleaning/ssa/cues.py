@@ -29,6 +29,7 @@ __all__ = [
     "midpoint_angles",
     "residual_breaks",
     "own_breaks",
+    "own_level",
     "motion_explained",
     "side_swaps",
     "mirrored_rotations",
@@ -98,7 +99,7 @@ def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None, rot
     """
     if not (np.isfinite(jump_deg) and jump_deg > 0):
         raise ValueError(f"jump_deg must be a positive number of degrees, got {jump_deg!r}")
-    usual = np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
+    usual = own_level(resid)
     if fps is not None:
         cap = np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2))
         usual = np.minimum(usual, cap)
@@ -106,6 +107,11 @@ def own_breaks(resid: np.ndarray, jump_deg: float, fps: float | None = None, rot
     if fps is not None and rotations is not None and cap > np.radians(jump_deg):
         breaks = motion_explained(np.asarray(rotations, dtype=np.float64), resid, breaks, cap)
     return breaks
+
+
+def own_level(resid: np.ndarray) -> np.ndarray:
+    """(J,) radians: what a joint's own motion reaches, uncapped (:func:`own_breaks`), from ``resid`` (F, J)."""
+    return np.maximum(10.0 * np.median(resid, axis=0), _usual_residual(resid))
 
 
 def motion_explained(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, cap: float) -> np.ndarray:

@@ -44,6 +44,7 @@ from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
 from .freeze_bounds import bounded_holds
 from .freezes import frozen_channels
+from .recurring_peaks import recurring_breaks
 from .reversals import reversed_runs
 from .smooth_turns import smooth_turn_breaks
 from .still_positions import position_kept_breaks
@@ -577,6 +578,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # breaks that stand out from the joint's own motion and speed (30 fps too)
     jumps = own_breaks(resid, p.jump_deg, motion.fps, motion.rotations)
     own = jumps.copy()  # the frozen channels end in a break of the joint's own, whatever its chain does
+    # a peak the frame-rate cap alone lets through, that the joint's own motion makes again elsewhere, is motion
+    jumps = recurring_breaks(resid, jumps, motion.fps, p.jump_deg)
     # a fast turn that speeds up and slows down over several frames and never turns back (a hand's flick) is motion
     jumps = smooth_turn_breaks(np.asarray(motion.rotations, dtype=np.float64), resid, jumps, p.jump_deg,
                                motion.skeleton.parents)
