@@ -96,28 +96,23 @@ def _renamed(m, names: dict, clip: str):
     return dataclasses.replace(m, skeleton=sk, name=clip)
 
 
-def test_markup_in_names_is_printed_as_is(tmp_path, capsys):
-    m = _renamed(mocapkit.load(SAMPLE)[:120], {"LeftKnee": "[/b]", "Hips": "[bold]root"}, "[/]")
-    inp = tmp_path / "[red]take[/].npz"
+@pytest.mark.parametrize("knee, root, clip, file", [
+    ("[/b]", "[bold]root", "[/]", "[red]take[/].npz"),  # rich markup
+    ("repair:b:3-4", ":smile:", ":ok:", "take:b:.npz"),  # emoji codes: ``:b:`` of a change id read as an emoji
+])
+def test_markup_and_emoji_codes_in_names_are_printed_as_is(tmp_path, capsys, knee, root, clip, file):
+    """Joint, take and file names print as given: rich read ``[bold]`` as markup and ``:b:`` of a change id
+    ``repair:b:3-4`` as an emoji (``repair🅱3-4``)."""
+    m = _renamed(mocapkit.load(SAMPLE)[:120], {"LeftKnee": knee, "Hips": root}, clip)
+    inp = tmp_path / file
     mocapkit.save(m, inp)
     assert main(["info", str(inp), "--joints"]) == 0
     out = capsys.readouterr().out
-    assert "[/b]" in out and "[bold]root" in out and str(inp) in out and "[/]" in out
-    dest = tmp_path / "[/]out.npz"
+    assert knee in out and root in out and str(inp) in out and clip in out
+    assert "\N{NEGATIVE SQUARED LATIN CAPITAL LETTER B}" not in out
+    dest = tmp_path / f"{clip}out.npz"
     assert main(["convert", str(inp), str(dest)]) == 0
     assert str(dest) in capsys.readouterr().out and dest.is_file()
-
-
-def test_emoji_codes_in_names_are_printed_as_is(tmp_path, capsys):
-    """rich read ``:b:`` of a change id ``repair:b:3-4`` as an emoji (``repair🅱3-4``): ids, joint and file names
-    print as given."""
-    m = _renamed(mocapkit.load(SAMPLE)[:60], {"LeftKnee": "repair:b:3-4", "Hips": ":smile:"}, ":ok:")
-    inp = tmp_path / "take:b:.npz"
-    mocapkit.save(m, inp)
-    assert main(["info", str(inp), "--joints"]) == 0
-    out = capsys.readouterr().out
-    assert "repair:b:3-4" in out and ":smile:" in out and str(inp) in out and ":ok:" in out
-    assert "\N{NEGATIVE SQUARED LATIN CAPITAL LETTER B}" not in out
 
 
 def test_info_on_a_rig_without_human_joints(tmp_path, capsys):
