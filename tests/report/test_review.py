@@ -400,12 +400,15 @@ def test_tied_changes_are_accepted_and_rejected_together(browser, tmp_path):
 
 def test_a_put_back_teleport_is_not_said_to_be_replaced_by_similar_motion():
     """The repair step puts a root teleport back on the path between the frames around it (whole_take), as it turns
-    a flip back by the same half turn: neither copies the take's similar motion, which the sentence said of both."""
+    a flip back by the turn it made: neither copies the take's similar motion, which the sentence said of both."""
     from mocapkit.cleaning.ssa.cues import CAUSES
 
     words = dict(CAUSES)
     assert plain_sentence("repair", [words["teleport"]]) == (
         "The whole body jumps away and back (bad root samples): put back on the root's path between the frames "
         "around the jump.")
-    assert plain_sentence("repair", [words["flip"]]).endswith(": turned back by the same half turn.")
+    # the turn undone: a half turn exactly, or the offsets measured at its steps (CMU 131_03's thumb, 158-164 deg)
+    assert plain_sentence("repair", [words["flip"]]) == (
+        "The joint turns about half a turn in one frame and later turns back: turned back by the turn it made there "
+        "(a half turn, or the turn measured at its two steps).")
     assert plain_sentence("repair", [words["offset"]]).endswith(": replaced by the take's own similar motion.")

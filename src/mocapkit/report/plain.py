@@ -27,7 +27,7 @@ PLAIN_CAUSES = {
     "spike": "the joint spikes far past anything it does elsewhere",
     "reversed": "this stretch plays backwards",
     "frozen": "the joint's rotation sticks on one value while the body moves, then jumps",
-    "flip": "the joint turns half a turn in one frame and later turns back",
+    "flip": "the joint turns about half a turn in one frame and later turns back",
 }
 _BY_WORDS = {words: PLAIN_CAUSES[name] for name, words in CAUSES}
 _STEPS = {
@@ -38,7 +38,7 @@ _STEPS = {
 #: what the repair step does instead of copying similar motion, for the causes it undoes exactly
 #: (:mod:`mocapkit.cleaning.ssa.flips`, the root's teleports in :mod:`mocapkit.cleaning.whole_take`)
 _UNDONE = {
-    "flip": "turned back by the same half turn",
+    "flip": "turned back by the turn it made there (a half turn, or the turn measured at its two steps)",
     "teleport": "put back on the root's path between the frames around the jump",
 }
 
