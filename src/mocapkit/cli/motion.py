@@ -212,7 +212,7 @@ def corrupt(
         _check_marker_kind(inp, kind)
         io.suffix_kind(out, io.MARKER_FORMATS, "writing markers")
     elif inp.suffix.lower() != ".npz" and out.suffix.lower() in (".c3d", ".trc"):
-        raise MocapFormatError(out, "a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers")
+        raise MocapFormatError(out, _SKELETON_OUT)
     mask_path = mask_out or mask_path_for(out)
     guard([out, mask_path], [inp, asf], overwrite)
     check_asf(asf, [inp], amc_fps, names=CLI_AMC_NAMES)
@@ -226,7 +226,7 @@ def corrupt(
     if keep_modelled:
         raise MocapError("--keep-modelled applies to marker files; IN is a motion")
     if out.suffix.lower() in (".c3d", ".trc"):
-        raise MocapFormatError(out, "a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers")
+        raise MocapFormatError(out, _SKELETON_OUT)
     io.suffix_kind(out, io.WRITERS, "writing")
     io.check_writable(m, out)
     params = {} if amount is None else {"amount": amount}
@@ -245,6 +245,11 @@ def corrupt(
                   f"{frames} of {plural(m.num_frames, 'frame')}")
     for r in records:
         console.print(f"  {corrupt_mod.describe_error(r, m, bad)}")
+
+
+#: corrupt's refusal of a skeleton take written to a marker format (said before the output guard when IN's suffix
+#: tells, after reading where IN is an .npz)
+_SKELETON_OUT = "a skeleton take is written as .bvh, .amc or .npz; .c3d and .trc hold markers"
 
 
 def _check_marker_kind(inp: Path, kind: str) -> None:
@@ -411,9 +416,13 @@ def _info_of_own_file(path: Path) -> bool:
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
         from ..cleaning.markers.clean import left_too_long
         from ..cleaning.markers.record import read_marker_record
+        from ..cleaning.pipeline import CleanResult
 
         rec = read_marker_record(path)
-        kept = _record_json(path, ("request", "decided"))  # what a cleaning was asked, and decisions applied
+        try:  # what a cleaning was asked, and decisions applied (a damaged member: left unsaid, as before)
+            kept = CleanResult.load_params(path) or {}
+        except MocapFormatError:
+            kept = {}
         review = isinstance(kept.get("request"), dict) and kept["request"].get("review") is True
         rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"
                                               + (", review mode (--steps detect)" if review else "")),
@@ -517,24 +526,6 @@ def _describe_json(path: Path, doc_path: Path, kind: str | None) -> bool:
                       ("input folder", str(doc.get("input")))])
         return True
     return False
-
-
-def _record_json(path: Path, keys) -> dict:
-    """The JSON members ``keys`` of the record ``path`` that it keeps (a marker capture's ``request``, ``decided``),
-    each parsed; one it lacks, or cannot parse, is left out."""
-    import json
-
-    import numpy as np
-
-    out = {}
-    with np.load(path, allow_pickle=False) as z:
-        for key in keys:
-            if key in z.files:
-                try:
-                    out[key] = json.loads(str(z[key]))
-                except ValueError:
-                    pass
-    return out
 
 
 def _decided_rows(params: dict | None) -> list[tuple[str, str]]:
