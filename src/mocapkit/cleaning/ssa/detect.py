@@ -659,12 +659,13 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
             if gaps_only and unseen.any():
                 before = int(unseen.any(axis=0).sum())
                 unseen = _judged_by_context(src, full, grows, words, nb, unseen, prefilter, max_word_angle_deg, opts)
-                notes.append(f"{before} of {plural(W, 'word')} have nothing like them in the take in some joint group: judged "
-                             "against the default context there")
+                notes.append(f"{before} of {plural(W, 'word')} {'has nothing like it' if before == 1 else 'have nothing like them'} "
+                             "in the take in some joint group: judged against the default context there")
             if unseen.any():
+                n_unseen = int(unseen.any(axis=0).sum())
                 notes.append(
-                    f"{int(unseen.any(axis=0).sum())} of {plural(W, 'word')} have no neighbour within {max_word_angle_deg:g} deg "
-                    "(RMS joint angle) in some joint group: not judged there"
+                    f"{n_unseen} of {plural(W, 'word')} {'has' if n_unseen == 1 else 'have'} no neighbour within "
+                    f"{max_word_angle_deg:g} deg (RMS joint angle) in some joint group: not judged there"
                 )
             neighbors = nb
             mean_tex, spread = mean_motion_texture(src, full, grows, words, nb, N, M, return_spread=True, keep=kept)
