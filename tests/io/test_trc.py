@@ -287,6 +287,9 @@ def test_trc_variants_that_are_not_cut_short_still_read(tmp_path, variant):
     assert (ms.num_frames, ms.num_markers) == (6, 3)
     assert ms.positions[0, 2].tolist() == [600.5, 700.5, 800.5]
     assert ms.missing()[5, 1:].all() == (variant == "trailing markers missing")
+    # a header counting fewer frames than the rows hold is said (all rows read); no other variant has a note
+    below = "the header states NumFrames 4, the file holds 6 rows: all 6 are read"
+    assert ms.notes == ((below,) if variant == "NumFrames below the rows" else ())
 
 
 # --- what the file holds comes back (trial11) -------------------------------------------------------

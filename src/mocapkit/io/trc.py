@@ -229,6 +229,7 @@ def read_trc(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     zeros = apply_zero_gaps(labels, xyz, None, checked_unit_cm(path, units), zeros_as_gaps)
     notes = repeated_labels_note(tuple(t.strip() for t in file_labels), labels)
     notes += _count_notes(int(stated), len([t for t in label_text if t.strip()]), held, m, labels)
+    notes += _frame_count_notes(header, len(rows))
     notes += _extra_field_notes(rows, row_lines, m)
     notes += frame_notes
     modelled = _read_modelled(path, header.get(MODELLED_KEY, ""), labels)
@@ -392,6 +393,18 @@ def _count_notes(stated: int, named: int, held: int, m: int, labels) -> tuple[st
         said.append(f"{plural(len(unnamed), 'trajectory', 'trajectories')} without a label named {span} "
                     "(M and the marker's place in the file)")
     return ("; ".join(said),) if said else ()
+
+
+def _frame_count_notes(header: dict, frames: int) -> tuple[str, ...]:
+    """One note when the header's NumFrames is a whole count below the ``frames`` data rows the file holds (a take
+    grown by hand, its header left): every row is read, and the user is told the header and the file disagree."""
+    try:
+        declared = float(header.get("NumFrames", "") or 0)
+    except ValueError:
+        return ()
+    if not (math.isfinite(declared) and declared == int(declared) and 0 < declared < frames):
+        return ()
+    return (f"the header states NumFrames {int(declared)}, the file holds {frames} rows: all {frames} are read",)
 
 
 def _extra_field_notes(rows, row_lines, m: int) -> tuple[str, ...]:
