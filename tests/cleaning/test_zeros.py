@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -155,3 +156,77 @@ def test_a_joint_that_never_moves_or_rests_at_zero_is_left():
     rest[300:320] = [1.0, 0.0, 0.0, 0.0]  # every rotation 0, the root where it is: a rest pose
     for r in (rot, rest):
         assert find_zeros(dataclasses.replace(m, rotations=r))[1] == ()
+
+
+def _stitched_6dp(paths, dst):
+    """Takes of one rig stitched end to end as a studio exporter writes them (trial T4): the first take's header,
+    every number at six decimals (``%.6f``), the Hips' X/Z positions shifted so that each take starts where the one
+    before it ended."""
+    head, rows, xz = None, [], []
+    for p in paths:
+        text = p.read_text().splitlines()
+        at = next(i for i, line in enumerate(text) if line.strip() == "MOTION") + 3
+        if head is None:
+            head, chans, joint = text[:at], [], None
+            for line in head:
+                t = line.split()
+                if t and t[0] in ("ROOT", "JOINT"):
+                    joint = t[1]
+                if t and t[0] == "CHANNELS":
+                    chans += [(joint, c) for c in t[2:]]
+            xz = [chans.index(("Hips", "Xposition")), chans.index(("Hips", "Zposition"))]
+        frames = [[float(v) for v in line.split()] for line in text[at:] if line.strip()]
+        for k in xz if rows else ():
+            d = rows[-1][k] - frames[0][k]
+            for fr in frames:
+                fr[k] += d
+        rows += frames
+    head = [f"Frames:\t{len(rows)}" if h.startswith("Frames:") else h for h in head]
+    dst.write_text("\n".join(head + [" ".join(f"{v:.6f}" for v in fr) for fr in rows]) + "\n")
+    return dst
+
+
+def test_a_straight_elbow_written_0_beside_a_join_is_no_dropout(shared_data, tmp_path):
+    # trial T4: walk-back_normal_001 holds its left elbow straight, off-axis channels 1e-15 deg that a 6-decimal
+    # exporter writes 0.000000 beside 0.000001; stitched after another take, the elbow's zero runs opened at the
+    # join (frame 247 here: -69 deg -> 0) and were "filled" as dropouts, bending the straight elbow by up to 78 deg
+    src = shared_data / "secondary_bandai_namco_CC-BY-NC"
+    paths = [src / f"dataset-1_{n}.bvh" for n in ("walk_tired_001", "walk-back_normal_001", "walk_normal_002")]
+    if not all(p.exists() for p in paths):
+        pytest.skip("the secondary Bandai Namco takes are not in the shared data")
+    path = _stitched_6dp(paths, tmp_path / "stitched.bvh")
+    assert find_zeros(mocapkit.load(path))[1] == ()
+    # real dropouts in the same stitched take are still found, in either take: values far from 0 on both sides; runs
+    # that close the second take or open the third (the join at 278 is a cut) are at a take's end, left as alone
+    bad = _zeroed_bvh(path, tmp_path / "bad.bvh", {(None, None): [100], ("LowerLeg_R", None): range(120, 136),
+                                                    ("UpperArm_L", "Yrotation"): range(285, 296),
+                                                    ("UpperArm_R", "Yrotation"): range(268, 278),
+                                                    ("LowerLeg_L", None): range(278, 288)})
+    assert [str(r) for r in find_zeros(mocapkit.load(bad))[1]] == [
+        "frame 100: every channel written as 0, the root's position too (a dropout), filled",
+        "UpperArm_L frames 285-295: Yrotation written as 0 (a dropout), filled",
+        "LowerLeg_R frames 120-135: channels written as 0 (a dropout), filled"]
+
+
+def test_blank_frames_an_exporter_wrote_are_named_once_and_left(tmp_path):
+    # trial T4: a studio export with a blank last frame (every channel 0, the root's position too) was said to be a
+    # 414 cm root jump "and stays there", a cut at the frame before it and a Shoulder_R half turn "in one frame and
+    # back"; it is now named for what it is, at either end, and the take comes back as it was
+    src = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_chimpira_001.bvh"
+    text = src.read_text().splitlines()
+    at = next(i for i, line in enumerate(text) if line.strip() == "MOTION") + 1
+    F = int(text[at].split()[1])
+    blank = " ".join(["0"] * len(text[at + 2].split()))
+    text[at] = f"Frames:\t{F + 2}"
+    path = tmp_path / "blank_ends.bvh"
+    path.write_text("\n".join(text[:at + 2] + [blank] + text[at + 2:at + 2 + F] + [blank]) + "\n")
+    take = mocapkit.load(path)
+    assert find_zeros(take)[1] == ()
+    res = clean(take, steps="detect,repair")  # the steps that read the take's breaks
+    lines = res.summary()
+    assert lines[:2] == ["frame 0: every channel 0 (a blank frame an exporter prepended); left as it is",
+                         f"frame {F + 1}: every channel 0 (a blank frame an exporter appended); left as it is"]
+    said = " ".join(lines)
+    assert not any(w in said for w in ("jumps", "a cut", "flip", "turn-over", "and back")), said
+    assert not res.changed.any() and not res.flags.any()
+    assert np.array_equal(res.motion.rotations, take.rotations)

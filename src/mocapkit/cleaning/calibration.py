@@ -49,12 +49,13 @@ import numpy as np
 from ..motion import Motion, find_joint
 from ..words import frame_span
 
-__all__ = ["CalibrationPose", "calibration_poses", "calibration_mask", "pose_kinds"]
+__all__ = ["CalibrationPose", "calibration_poses", "calibration_mask", "pose_kinds", "BLANK"]
 
 ROLES_USED = ("head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_hand", "right_hand",
               "left_hip", "right_hip", "left_knee", "right_knee", "left_foot", "right_foot")
 NONE, T_POSE, A_POSE = 0, 1, 2
 KIND_NAMES = {T_POSE: "T-pose", A_POSE: "A-pose"}
+BLANK = "blank"  # the kind of the frames of every channel 0 an exporter wrote before or after the take
 
 
 @dataclass(frozen=True)
@@ -80,6 +81,10 @@ class CalibrationPose:
     def __str__(self) -> str:
         a, b = self.frames
         span = frame_span(a, b - 1)
+        if self.kind == BLANK:
+            put = "appended" if self.where == "end" else "prepended"
+            what = f"a blank frame an exporter {put}" if b - a == 1 else f"blank frames an exporter {put}"
+            return f"{span}: every channel 0 ({what}); left as {'it is' if b - a == 1 else 'they are'}"
         extra = f" with {self.t_stop - self.t_start} transition frames" if self.t_stop > self.t_start else ""
         return f"{span}: calibration {self.kind}{extra}, left alone"
 
@@ -149,14 +154,33 @@ def pose_kinds(
 
 
 def calibration_poses(motion: Motion, transition_s: float = 0.5, a_max_deg: float = 60.0) -> tuple[CalibrationPose, ...]:
-    """The calibration poses opening and closing ``motion`` (none, one or two), see the module docstring.
+    """The calibration poses opening and closing ``motion`` (none, one or two), see the module docstring, and
+    outside them the blank frames (every channel 0, :func:`mocapkit.cleaning.zeros.blank_ends`) an exporter wrote
+    before or after the take, kind :data:`BLANK`: left alone as a pose is, and named for what they are (the jump into
+    a blank last frame was named a 414 cm root jump, a cut and a turn-over, trial T4).
 
-    A take that is a calibration pose from end to end gives one pose at the
-    start covering it all.
+    A take that is a calibration pose (or blank) from end to end gives one pose at the start covering it all.
     """
+    from .zeros import blank_ends
+
     F = motion.num_frames
     if F == 0:
         return ()
+    lead, trail = blank_ends(motion)
+    if lead == F:
+        return (CalibrationPose(0, F, BLANK, "start", F, F),)
+    if lead or trail:
+        inner = _poses(motion[lead:F - trail], transition_s, a_max_deg)
+        shifted = tuple(CalibrationPose(p.start + lead, p.stop + lead, p.kind, p.where, p.t_start + lead,
+                                        p.t_stop + lead) for p in inner)
+        return ((CalibrationPose(0, lead, BLANK, "start", lead, lead),) if lead else ()) + shifted + (
+            (CalibrationPose(F - trail, F, BLANK, "end", F - trail, F - trail),) if trail else ())
+    return _poses(motion, transition_s, a_max_deg)
+
+
+def _poses(motion: Motion, transition_s: float, a_max_deg: float) -> tuple[CalibrationPose, ...]:
+    """:func:`calibration_poses` of a take with no blank frame at its ends."""
+    F = motion.num_frames
     kinds, elev = pose_kinds(motion, a_max_deg=a_max_deg)
     out = []
     arms_out = np.all(np.nan_to_num(elev, nan=-90.0) > -a_max_deg, axis=1)

@@ -273,10 +273,13 @@ def _usual_peak(resid: np.ndarray) -> np.ndarray:
     return np.percentile(resid, max(0.0, min(98.0, 100.0 * (1.0 - 8.0 / max(F, 1)))), axis=0)
 
 
-def cut_scores(motion: Motion, resid: np.ndarray | None = None) -> np.ndarray:
+def cut_scores(motion: Motion, resid: np.ndarray | None = None, ignore: np.ndarray | None = None) -> np.ndarray:
     """(F,) the share of moving joints that break into each frame (module docstring; 0 at frame 0).
 
-    ``resid``: ``midpoint_residuals(motion.rotations)`` when the caller has them already (None: made here)."""
+    ``resid``: ``midpoint_residuals(motion.rotations)`` when the caller has them already (None: made here).
+    ``ignore``: (F, J) bool or None, cells that are no evidence (channels written as 0, :mod:`.zeros`): a joint
+    with such a cell at a frame or beside it is left out of that frame's share, its breaks and its count alike, so
+    that a dropout's own jumps make no cut."""
     from .ssa.cues import midpoint_residuals
 
     if resid is None:
@@ -297,21 +300,33 @@ def cut_scores(motion: Motion, resid: np.ndarray | None = None) -> np.ndarray:
     over = resid > limit  # a break between f-1 and f shows at f-1 and at f
     into = np.zeros_like(over)
     into[1:] = over[:-1] | over[1:]
-    out = into[:, moving].mean(axis=1)
+    if ignore is None:
+        out = into[:, moving].mean(axis=1)
+    else:  # a cell ignored at f - 2 .. f + 1 touches the residuals that make into[f]
+        given = np.asarray(ignore, dtype=bool)
+        ign = given.copy()
+        ign[1:] |= given[:-1]
+        ign[2:] |= given[:-2]
+        ign[:-1] |= given[1:]
+        counted = moving[None, :] & ~ign
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out = np.nan_to_num((into & counted).sum(axis=1) / counted.sum(axis=1))
     out[0] = 0.0
     return out
 
 
-def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray | None = None) -> list[Cut]:
+def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray | None = None,
+         ignore: np.ndarray | None = None) -> list[Cut]:
     """The :class:`Cut` frames of ``motion`` (within ``span`` ``(lo, hi)``; module docstring).
 
-    ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already (:func:`cut_scores`)."""
+    ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already; ``ignore``: (F, J)
+    cells of ``motion`` that are no evidence (:func:`cut_scores`)."""
     F = motion.num_frames
     lo, hi = (0, F) if span is None else span
     if hi - lo < CUT_MIN_FRAMES:
         return []
     part = motion if (lo, hi) == (0, F) else motion[lo:hi]
-    share = cut_scores(part, resid)
+    share = cut_scores(part, resid, None if ignore is None else np.asarray(ignore)[lo:hi])
     found = np.flatnonzero(share >= CUT_SHARE)
     out = []
     for f in found:
