@@ -15,7 +15,7 @@ import numpy as np
 from ..words import frame_span
 from .decisions import flag_segments
 from .ssa import LeftRun
-from .ssa.flips import left_from_note
+from .ssa.flips import LASTS_TO_END, left_from_note
 
 __all__ = ["flag_outcomes", "left_line"]
 
@@ -42,7 +42,8 @@ def flag_outcomes(result) -> list[dict]:
         left, reason, span = "", "", (a, b)
         turns = [w for js, f0, f1, w in flips if seg["joint"] in js and f0 <= b and a <= f1]
         if not changed[a:b + 1, j].any() and turns:
-            reason = "a half turn in one frame and back, not turned back"
+            back = "" if turns[0] == LASTS_TO_END else " and back"  # no way back before the take's end: not said
+            reason = f"a half turn in one frame{back}, not turned back"
             left = f"left as it was: {reason} ({turns[0]})"
         elif not changed[a:b + 1, j].any():
             why = [r.reason for r in runs if r.joint == seg["joint"] and r.start <= b and a < r.end]

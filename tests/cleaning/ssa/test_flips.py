@@ -5,7 +5,7 @@ import pytest
 
 import mocapkit
 from mocapkit import rotations as R
-from mocapkit.cleaning.ssa.cues import CAUSES
+from mocapkit.cleaning.ssa.cues import CAUSES, cause_names
 from mocapkit.cleaning.ssa.flips import turned_back
 
 FLIP_BIT = 1 << [name for name, _ in CAUSES].index("flip")
@@ -230,3 +230,22 @@ def test_a_leaf_turned_back_by_measured_offsets_is_said_as_such_not_exactly(shar
     assert str(next(f for f in fixed if f.first == 478)) == (
         "RThumb turned about a half turn and back, frames 478-481: turned back by the offsets measured at its two "
         "steps (158-164 deg, slerped across the run)")
+
+
+def test_a_turn_over_lasting_to_the_takes_end_is_not_said_to_turn_back():
+    """Trial T4: a turn-over with no turn back before the take's end was said "turned 180 deg in one frame and back"
+    (the flag's cause), "... and back, frame 195 ..." and "a half turn in one frame and back, not turned back" beside
+    "(it lasts to the end of the take)". The bundled CMU 131_01 cut at frame 186 ends inside RThumb's constant half
+    turn of frames 178-191: every line about it now says it turns, none that it turns back."""
+    from mocapkit.cleaning.flags_left import flag_outcomes
+
+    take = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[100:186]  # the half turn from frame 78 to the end
+    review = mocapkit.clean(take, steps="detect")
+    said = [n for n in review.notes if n.startswith("flip: ")]
+    assert said == ["flip: RThumb turned 180 deg to the take's end, frames 78-85 (a constant half turn): left as is "
+                    "(it lasts to the end of the take)"]
+    left = [f["left"] for f in flag_outcomes(review) if f["joint"] == "RThumb"]
+    assert left == ["left as it was: a half turn in one frame, not turned back (it lasts to the end of the take)"]
+    j = take.skeleton.index("RThumb")
+    assert cause_names(review.causes[78:, j]) == ["turned 180 deg in one frame (a turn-over, mocapkit.cleaning.ssa.flips)"]
+    assert np.array_equal(review.motion.rotations, take.rotations)

@@ -711,7 +711,7 @@ CAUSES = (
     ("spike", "a spike far past the joint's own motion, where no similar motion judges it"),
     ("reversed", "a stretch played backwards (time-reversed), not a left/right swap"),
     ("frozen", "one rotation repeated bit for bit while the body moves, then a break (a frozen channel)"),
-    ("flip", "turned 180 deg in one frame and back (a turn-over, mocapkit.cleaning.ssa.flips)"),
+    ("flip", "turned 180 deg in one frame (a turn-over, mocapkit.cleaning.ssa.flips)"),
 )
 #: the integer type of :func:`flag_causes` (one bit per entry of :data:`CAUSES`)
 CAUSE_DTYPE = np.uint16

@@ -46,7 +46,7 @@ import numpy as np
 from ... import rotations as R
 from ...words import frame_span
 
-__all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
+__all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "LASTS_TO_END", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
 
 #: a step of a joint's rotation this large (degrees, in one frame) is a turn-over
 FLIP_DEG = 150.0
@@ -58,6 +58,8 @@ AGREE_DEG = 10.0
 STEP_OK_DEG = 20.0
 #: a joint channel may leave its ASF limits by this much (degrees) more than the take beside the run does
 LIMIT_TOL_DEG = 1.0
+#: why a turn-over is left where it is not turned back by the take's end: it has no "and back" (trial T4)
+LASTS_TO_END = "it lasts to the end of the take"
 HALF_TURN_DEG = 179.99  # a leaf turned back by at least this everywhere was turned back by a half turn exactly
 
 
@@ -94,6 +96,7 @@ class Flip:
         frames = frame_span(self.first, self.last)
         below = "".join(f", {n}'s own steps at both ends taken away with it" for n in self.steps_below)
         what = (f"turned 180 deg about itself, {frames}, positions unchanged" if self.kind == "bone"
+                else f"turned 180 deg to the take's end, {frames} (a constant half turn)" if self.why == LASTS_TO_END
                 else f"turned about a half turn and back, {frames}" if self.measured
                 else f"turned 180 deg and back, {frames} (a constant half turn)")
         done = f"turned back {self.measured}" if self.measured else f"turned back exactly{below}"
@@ -385,7 +388,7 @@ def turned_back(motion, leaves=()) -> tuple:
     for a, b, chain, kind in sorted(found, key=lambda x: (x[0], x[2][0])):
         joint_names = tuple(names[c] for c in chain)
         if b is None:
-            flips.append(Flip(joint_names, a, F - 1, kind, False, "it lasts to the end of the take"))
+            flips.append(Flip(joint_names, a, F - 1, kind, False, LASTS_TO_END))
             flagged[a:, chain] = True
             continue
         if kind == "bone":
