@@ -38,6 +38,13 @@ take jumps straight into its motion.
 The poses are named in the clean summary ("frames 0-1: calibration T-pose,
 left alone"); :func:`calibration_mask` is the (F,) bool of the frames every
 cleaning step leaves alone.
+
+Blank frames an exporter wrote before or after the take (every channel 0, the
+root's position too: :func:`mocapkit.cleaning.zeros.blank_ends`) are left alone
+the same way, as poses of kind :data:`BLANK` outside the calibration poses, and
+named for what they are ("frame 195: every channel 0 (a blank frame an exporter
+appended); left as it is"): read as motion, the jump into a blank last frame was
+said to be a 414 cm root jump, a cut and a turn-over (trial T4).
 """
 
 from __future__ import annotations
