@@ -415,7 +415,7 @@ def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
 
 def _span_note(lo: int, hi: int) -> str:
     """The note of a detection analysed on frames ``lo .. hi - 1`` only (:meth:`Detection.padded`)."""
-    return f"analysed frames {lo}-{hi - 1} (calibration poses left out); word starts count from there"
+    return f"analysed frames {lo}-{hi - 1} (calibration poses or blank frames at the take's ends left out); word starts count from there"
 
 
 def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None,
