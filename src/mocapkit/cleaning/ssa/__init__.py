@@ -14,7 +14,8 @@ The package, by step of the method:
 - :mod:`~mocapkit.cleaning.ssa.repair`: the flagged cells replaced by their neighbour words;
 - :mod:`~mocapkit.cleaning.ssa.undo`: a transient offset's offset taken away instead;
 - :mod:`~mocapkit.cleaning.ssa.swap_exchange`: a side swap exchanged back with mirrored rotations instead;
-- :mod:`~mocapkit.cleaning.ssa.freeze_bounds`: a frozen channel's flags bounded to its frozen frames.
+- :mod:`~mocapkit.cleaning.ssa.freeze_bounds`: a frozen channel's flags bounded to its frozen frames;
+- :mod:`~mocapkit.cleaning.ssa.turning_holds`: a joint still for one step where it turns back is not held.
 
 A clip's joint rotations over time form a *motion texture* (section 3.1):
 resampled to the analysis rate (24 fps), one row per joint, the root's heading removed so global

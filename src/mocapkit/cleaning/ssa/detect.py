@@ -48,6 +48,7 @@ from .recurring_peaks import recurring_breaks
 from .reversals import reversed_runs
 from .smooth_turns import smooth_turn_breaks
 from .still_positions import position_kept_breaks
+from .turning_holds import without_turning_points
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
 __all__ = ["Detection", "detect", "detect_prepared", "movement_digression_map", "flag_runs"]
@@ -709,6 +710,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     jumps &= analysed[None, :]
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg,
                         min_frames=hold_min_frames(motion.fps, p.analysis_fps)) & analysed[None, :]
+    holds = without_turning_points(q, holds)  # still for one step where it turns back: its swing's end, not a freeze
     # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
     frozen = frozen_channels(q, own, analysed, motion.fps)
     holds = bounded_holds(holds, frozen)  # a hold that holds a freeze: its repeats, not the sample it froze at
