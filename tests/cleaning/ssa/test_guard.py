@@ -213,3 +213,35 @@ def test_a_swap_flagged_as_two_digressions_is_put_back_as_a_swap():
         j = ref.skeleton.index(name)
         assert not det.swaps[150:165, j].any()
         assert np.degrees(R.geodesic_angle(out.rotations[150:165, j], ref.rotations[150:165, j])).max() < 0.01
+
+
+def test_a_run_written_up_to_the_take_s_first_or_last_frame_is_open_ended():
+    """open_end_runs: a changed run that starts or ends the take and holds a cell written from the take's own next
+    moment; a run inside the take, or one at its edge with no such cell (a repeat's, or put back), is not."""
+    from mocapkit.cleaning.ssa.guard import open_end_runs
+
+    changed = np.zeros(20, dtype=bool)
+    changed[0:3] = changed[8:11] = changed[17:20] = True
+    written = changed.copy()
+    assert [r[:2] for r in open_end_runs(changed, written)] == [(0, 3), (17, 20)]
+    assert "first frame" in open_end_runs(changed, written)[0][2]
+    written[17:20] = False  # written from a repeat of the motion, or an offset taken away
+    assert [r[:2] for r in open_end_runs(changed, written)] == [(0, 3)]
+
+
+def test_a_clean_take_s_onset_judged_by_one_word_is_not_repaired_by_a_guess():
+    """Bandai dataset-2 raise-up-both-hands_active_061 (clean, 30 fps): both arms swing out and back over frames 0-5
+    before they rise; the right forearm's break at 5-6 confirms its digression from the one neighbour word its first
+    frames have, the take 12 analysis frames on, and the repair wrote frames 0-5 38 deg off the capture on average
+    (the left arm, making the same swing, unflagged). The flag stays; the take comes back bit-identical, the run
+    named."""
+    from pathlib import Path
+
+    take = mocapkit.load(Path(__file__).parents[2] / "data" / "dataset-2_raise-up-both-hands_active_061.bvh")
+    arm = take.skeleton.joint_names.index("LowerArm_R")
+    det = detect_take(take, None, params=take_params()).detection
+    assert det.flags[:6, arm].all()
+    out, left = ssa.repair_with_left(take, det, None, foot_skate=False)
+    np.testing.assert_array_equal(out.rotations, take.rotations)
+    assert [(r.joint, r.start, r.end) for r in left] == [("LowerArm_R", 0, 6)]
+    assert "take's first frame" in left[0].reason

@@ -21,7 +21,24 @@ take is cleaned, but the take's own continuity is. A run of changed cells of one
   of the joint, it is the error spread over clean frames. (A bound closer to the joint's own peak left
   good bridges of freezes on fast knees and elbows, whose fastest frames are the flagged ones.)
 
-Two more rules, of the run's frames and of a left/right pair rather than of its joins:
+Three more rules, of the run's frames and of a left/right pair rather than of its joins:
+
+* **A take's edge written from the take's own next moment is a guess nothing checks** (:func:`open_end_runs`):
+  the rules above judge a repair by how it meets the take, and a run that starts (ends) the take meets it at
+  one end only; its other end is wherever the neighbour word puts it. Where that word is a repeat of the
+  motion (another stride, another grab) it is evidence; where every word the run was written from is the take
+  itself, starting inside its source word or right after it (at most one word, 15 analysis frames, away), it
+  is the same stretch of motion a moment later, not a repeat of it: a short take's onset has nothing else to
+  be compared with. Bandai Namco dataset-2 ``raise-up-both-hands`` takes (1.5 s at 30 fps) had their right
+  forearm's first 6-8 frames, where both arms swing out and back before rising, "repaired" 36-44 deg away
+  from the capture on average (9 takes, ``active_055``-``097``; the left arm makes the same swing, unflagged),
+  from the words 8-17 analysis frames after the first one; on the corrupted short Bandai takes tried
+  (``corrupt.real_errors`` seeds 2001-2004 on six ``raise-up``/``wave`` takes) the two runs written at a
+  take's edge came out worse than their input (0.0 -> 27.0 and 9.5 -> 73.8 deg off the clean take). Such a run
+  is given back and named; the flag stays for a person to see. A run written from a word elsewhere in the
+  take or its context is judged as before (an HDM05 swap of the femurs running to a 120 fps take's last frame
+  came back 0.2 deg off the clean take from another grab), and so is one put back by the take's own motion
+  (an offset taken away, a swap exchanged back).
 
 * **A run's extent stops at the break that bounds it** (:func:`on_path_ends`): the first flagged frame of a run
   whose step into the next frame is the break, while the frame before it continues into it smoothly, lies on
@@ -57,7 +74,7 @@ from ..ik import contact_segments
 from ...words import frame_span
 
 __all__ = ["LEFT_PREFIX", "LeftRun", "ON_PATH_RATIO", "angular_acceleration", "end_roughness", "guard_joint", "held",
-           "on_path_ends", "pair_left", "rougher_end", "roughness"]
+           "on_path_ends", "open_end_runs", "pair_left", "rougher_end", "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
@@ -200,6 +217,22 @@ def guard_joint(
         if rough_end is not None:
             bad.append((s, e, rough_end))
     return bad
+
+
+def open_end_runs(changed: np.ndarray, own_next: np.ndarray) -> list[tuple[int, int, str]]:
+    """The runs of ``changed`` (F,) bool, one joint's changed frames, that start or end the take and hold a cell of
+    ``own_next`` (F,) bool (written from words of the take itself at most a word from the cell's source word, not
+    put back by the take's own motion), as ``(start, end, reason)`` (end exclusive): a guess with no join at the
+    take's edge and no repeat of the motion to check it by (module docstring)."""
+    changed, sole = np.asarray(changed, dtype=bool), np.asarray(own_next, dtype=bool)
+    F = len(changed)
+    out = []
+    for s, e in contact_segments(changed):
+        if (s == 0 or e == F) and sole[s:e].any():
+            edge = "first" if s == 0 else "last"
+            out.append((int(s), int(e), f"written up to the take's {edge} frame from the take's own next moment: no "
+                                        f"frame beyond it nor a repeat of the motion to judge it by"))
+    return out
 
 
 def on_path_ends(q: np.ndarray, flags: np.ndarray) -> np.ndarray:

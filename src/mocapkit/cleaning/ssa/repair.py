@@ -26,7 +26,7 @@ from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
-from .guard import LeftRun, guard_joint, on_path_ends, pair_left
+from .guard import LeftRun, guard_joint, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
 from .swap_exchange import pair_exchange, swap_exchanges
 from .undo import undone_offsets
@@ -253,6 +253,7 @@ def repair_with_left(
     groups = [np.flatnonzero(detection.group_masks[g]) for g in range(len(detection.group_names))]
     new = np.array(motion.rotations)
     placed = np.zeros(flags.shape, dtype=bool)  # the flagged cells a neighbour word was written into
+    own_next = np.zeros(flags.shape, dtype=bool)  # those written from the take's own next (or last) word alone
     heading = R.quaternion_twist(motion.rotations[:, 0], up)
     # a transient offset's own motion is kept: its offset is taken away, not replaced by a neighbour word (a side
     # swap's joint took its partner's pose, no offset of its own: it is exchanged back below)
@@ -305,11 +306,12 @@ def repair_with_left(
         members = groups[g]
         fs = np.array([f for f, _ in cells], dtype=np.int64)
         js = np.array([j for _, j in cells], dtype=np.int64)
-        found = [(warped[g, w, k], d) for k, d, _ in candidates[(g, w)] if warped.get((g, w, k)) is not None]
+        found = [(warped[g, w, k], d, q) for k, d, q in candidates[(g, w)] if warped.get((g, w, k)) is not None]
         if not found:
             continue
-        nearest = min(d for _, d in found)
-        words_k = [nw for nw, d in found if near_neighbors(d, nearest)]
+        nearest = min(d for _, d, _ in found)
+        near = [(nw, q) for nw, d, q in found if near_neighbors(d, nearest)]
+        words_k = [nw for nw, _ in near]
         cs = np.searchsorted(members, [col[int(j)] for j in js])  # the cells' rows within the word
         flagged_cols = np.unique(cs)
         x = np.clip(tau[fs] - words[w], 0.0, N - 1.0)
@@ -334,6 +336,7 @@ def repair_with_left(
             choice = _medoid(words_k, flagged_cols)
         place(words_k[choice], new)
         placed[fs, js] = True
+        own_next[fs, js] = all(q < n_self and abs(q - int(words[w])) <= N for _, q in near)  # (guard.open_end_runs)
     # a flagged run no neighbour word was written into is bridged like a gap: slerp between its ends,
     # unflagged or already replaced (blending its own values towards the ends would bend a 180-degree
     # flip, not undo it)
@@ -348,7 +351,7 @@ def repair_with_left(
         out_rot[:, j] = _blend_runs(base[:, j], new[:, j], placed[:, j], window)
     left: list[LeftRun] = []
     if guard:  # a run the take shows to be no better than its input is given back as it was (guard.py)
-        left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path)
+        left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path, own_next & ~undone)
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from .. import ik
@@ -363,14 +366,16 @@ def repair_with_left(
 
 
 def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.ndarray, undone: np.ndarray,
-           bridged: np.ndarray, on_path: np.ndarray) -> list[LeftRun]:
+           bridged: np.ndarray, on_path: np.ndarray, own_next: np.ndarray) -> list[LeftRun]:
     """The repair guard (:mod:`~mocapkit.cleaning.ssa.guard`) on ``out_rot`` (F, J, 4), the repaired rotations,
     changed in place: each run it fails given back its input values; the runs left, in order.
 
     ``flags`` (F, J): the flagged cells; ``replaced``: those written from neighbour words or bridged; ``undone``:
     those put back by the take's own motion (an offset taken away, a swap exchanged back); ``bridged``: the
     bridged ones; ``on_path``: the flagged frames at the runs' ends left on the joint's own path
-    (:func:`~mocapkit.cleaning.ssa.guard.on_path_ends`). A run of one side of a left/right pair that fails while
+    (:func:`~mocapkit.cleaning.ssa.guard.on_path_ends`); ``own_next``: the replaced cells whose neighbour
+    words were all the take's own motion less than a word from their source word, whose runs at the take's
+    first or last frame are given back (:func:`~mocapkit.cleaning.ssa.guard.open_end_runs`). A run of one side of a left/right pair that fails while
     its partner digresses over the same frames is put back as a swap where the mirrored exchange joins the take
     (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else its partner's runs over those frames
     that hold a replaced cell are left too (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
@@ -385,6 +390,8 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     for j in np.flatnonzero((replaced | undone).any(axis=0)):
         tiny = negligible_runs(orig[:, j], out_rot[:, j], changed[:, j])  # (negligible.py)
         worse = guard_joint(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j], flags[:, j])
+        worse += [r for r in open_end_runs(changed[:, j], own_next[:, j])
+                  if r[:2] not in {w[:2] for w in worse}]  # a run at the take's edge: no join there to judge it by
         worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
         failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
         for s, e, why in tiny + worse:
