@@ -43,8 +43,8 @@ Blank frames an exporter wrote before or after the take (every channel 0, the
 root's position too: :func:`mocapkit.cleaning.zeros.blank_ends`) are left alone
 the same way, as poses of kind :data:`BLANK` outside the calibration poses, and
 named for what they are ("frame 195: every channel 0 (a blank frame an exporter
-appended); left as it is"): read as motion, the jump into a blank last frame was
-said to be a 414 cm root jump, a cut and a turn-over (trial T4).
+appended); left as it is"): read as motion, the jump into a blank last frame
+would read as a root jump of the whole figure, a cut and a turn-over.
 """
 
 from __future__ import annotations
@@ -163,8 +163,8 @@ def pose_kinds(
 def calibration_poses(motion: Motion, transition_s: float = 0.5, a_max_deg: float = 60.0) -> tuple[CalibrationPose, ...]:
     """The calibration poses opening and closing ``motion`` (none, one or two), see the module docstring, and
     outside them the blank frames (every channel 0, :func:`mocapkit.cleaning.zeros.blank_ends`) an exporter wrote
-    before or after the take, kind :data:`BLANK`: left alone as a pose is, and named for what they are (the jump into
-    a blank last frame was named a 414 cm root jump, a cut and a turn-over, trial T4).
+    before or after the take, kind :data:`BLANK`: left alone as a pose is, and named for what they are (read as
+    motion, the jump into a blank last frame would be a root jump, a cut and a turn-over).
 
     A take that is a calibration pose (or blank) from end to end gives one pose at the start covering it all.
     """

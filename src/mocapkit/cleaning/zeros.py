@@ -47,7 +47,7 @@ that starts and ends where the joint happened to be near 0 is not told from a
 limit, and is left to detection.
 
 A joint that *rests* at 0 is no dropout either, whatever the run's other edge
-does (trial T4, studio BVH exports at six decimals):
+does (studio BVH exports at six decimals):
 
 - a run with an edge where the joint (channel) reads within ``HOVER_DEG``
   (1e-3 deg) of 0, at the frame beside the run and the one beyond it: the
@@ -65,12 +65,10 @@ cells, so that a dropout's jumps make no cut) and its root's jumps that stay
 (:func:`~mocapkit.cleaning.take_breaks.root_events`). A run within a frame of
 a break, or holding one, opens or closes a take and is left, as at the take's
 ends; the share of ``MAX_SHARE`` is counted between the breaks around the run
-(each take judged as it would be alone). Stitched from the Bandai Namco takes
-at six decimals, a straight elbow's zeros beside a join were "filled" as
-dropouts, bending it by up to 78 deg; none is now (50 stitched triples of
-other Bandai Namco styles: 4 runs found on clean data before, none now; 87 of
-100 dropouts injected into them found, as before; CMU BVH: 12 of 16, as
-before).
+(each take judged as it would be alone). So a straight elbow's zeros beside a
+join of Bandai Namco takes stitched at six decimals are left (a fill would bend
+it by up to 78 deg), while dropouts injected into such takes are still found
+(87 of 100 over 50 stitched triples of Bandai Namco styles; CMU BVH: 12 of 16).
 """
 
 from __future__ import annotations
@@ -255,7 +253,7 @@ def find_zeros(motion: Motion, values: np.ndarray | None = None) -> tuple[np.nda
 
 def blank_ends(motion: Motion) -> tuple[int, int]:
     """``(lead, trail)``: how many frames open and close ``motion`` with every channel read as 0, the root's position
-    too (within ``ZERO_TOL``): blank frames an exporter wrote before or after the take (trial T4: a studio export with
+    too (within ``ZERO_TOL``): blank frames an exporter wrote before or after the take (a studio export with
     one such frame appended). No dropout (nothing on the other side to fill from): left as they are, and named, by
     :func:`mocapkit.cleaning.calibration.calibration_poses`, so that no later step reads the take's jump into them
     as a root jump, a cut or a turn-over. A take blank throughout gives ``(F, 0)``."""

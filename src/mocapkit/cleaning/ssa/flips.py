@@ -58,7 +58,7 @@ AGREE_DEG = 10.0
 STEP_OK_DEG = 20.0
 #: a joint channel may leave its ASF limits by this much (degrees) more than the take beside the run does
 LIMIT_TOL_DEG = 1.0
-#: why a turn-over is left where it is not turned back by the take's end: it has no "and back" (trial T4)
+#: why a turn-over is left where it is not turned back by the take's end: it has no "and back"
 LASTS_TO_END = "it lasts to the end of the take"
 HALF_TURN_DEG = 179.99  # a leaf turned back by at least this everywhere was turned back by a half turn exactly
 
