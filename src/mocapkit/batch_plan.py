@@ -153,10 +153,11 @@ def check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs
     take's files, complete takes included (an output that *is* an input means
     OUT_DIR reaches into IN_DIR), and against each other; then, per take to
     clean, :func:`mocapkit.io.outputs.check_outputs` against its own input,
-    the context and the input folder (existing files, folders, parents). A
+    the context and the input folder (folders, parents), and last the existing files of every take, all named in
+    one refusal (:func:`mocapkit.io.outputs.refuse_existing`). A
     corpus of N takes costs O(N), not O(N^2).
     """
-    from .io.outputs import check_outputs, resolved
+    from .io.outputs import check_outputs, refuse_existing, resolved
 
     by_path = {resolved(p): p for p in inputs}
     by_inode = {}
@@ -176,9 +177,11 @@ def check_batch_outputs(plans: list[dict], todo: list[tuple[Path, dict]], inputs
             if r in written:
                 raise MocapFormatError(out, f"given as two outputs ({written[r]}); each output needs its own path")
             written[r] = out
+    existing: list[Path] = []  # every take's outputs in the way, named in one refusal (not one per run)
     for inp, files in todo:
         check_outputs([f for f in files.values() if f is not None], [inp, *context, *folders], overwrite=overwrite,
-                      how=how)
+                      how=how, existing=existing)
+    refuse_existing(existing, how)
 
 
 def _below(p: Path, folder: Path) -> bool:

@@ -48,10 +48,12 @@ from typing import Iterable, Iterator
 
 from ..errors import MocapFormatError
 from ..interrupts import interrupts_held, whole_hand_over, whole_step
+from ..words import listed
 
 __all__ = ["check_file_path", "check_outputs", "replaced_whole_around", "same_file", "inside",
            "removed_on_failure", "publish", "keep_aside", "named_as_given", "put_back", "drop_kept", "missing_folders",
-           "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX", "name_too_long"]
+           "file_facts", "input_facts", "other_input", "temp_prefix", "NAME_MAX", "name_too_long",
+           "refuse_existing"]
 
 
 def resolved(path: os.PathLike | str) -> Path:
@@ -144,6 +146,7 @@ def check_outputs(
     *,
     overwrite: bool = False,
     how: str = "pass overwrite=True",
+    existing: list | None = None,
 ) -> None:
     """Refuse, before any work, outputs that would replace an input, each other, or an existing file.
 
@@ -157,6 +160,9 @@ def check_outputs(
     overwrite : allow replacing an existing output *file* (never an input, never a folder).
     how : what the refusal of an existing output tells its caller to do, in the caller's words (Python's
         ``pass overwrite=True``; the command line's ``pass --overwrite``).
+    existing : a list the existing outputs (without ``overwrite``) are appended to instead of refused, for a caller
+        that checks many takes' outputs and refuses them all at once (:func:`refuse_existing`). Without it every
+        existing output of ``outputs`` is named in one refusal, after the other checks: a user fixes them in one go.
 
     Raises
     ------
@@ -172,6 +178,7 @@ def check_outputs(
             raise MocapFormatError(out, f"cannot be written: {why}; choose a shorter name")
     ins = [Path(i) for i in inputs if i is not None]
     seen: list[Path] = []
+    found: list[Path] = [] if existing is None else existing
     for out in outs:
         for inp in ins:
             if same_file(out, inp) and not os.path.lexists(inp):
@@ -197,7 +204,26 @@ def check_outputs(
             raise MocapFormatError(out, f"refusing to write inside {what} ({folder}), which {by} replaces whole; "
                                         "choose another folder")
         if os.path.lexists(out) and not overwrite:  # a dangling link too
-            raise MocapFormatError(out, f"already exists; {how} to replace it")
+            found.append(out)
+    if existing is None:
+        refuse_existing(found, how)
+
+
+def refuse_existing(paths: list, how: str = "pass overwrite=True") -> None:
+    """Refuse the existing outputs ``paths`` (none: nothing) in one line that names every one of them: a user who
+    fixes the one named and runs again met the next one (``clean-batch`` named only the first of a folder's).
+
+    >>> try:
+    ...     refuse_existing(["out/T.trc", "out/G.report.html"], "pass --overwrite")
+    ... except MocapFormatError as exc:
+    ...     print(exc)
+    out/T.trc: already exists; pass --overwrite to replace it, and out/G.report.html, which exists too
+    """
+    if not paths:
+        return
+    first, rest = paths[0], [os.fspath(p) for p in paths[1:]]
+    also = f", and {listed(rest)}, which {'exists' if len(rest) == 1 else 'exist'} too" if rest else ""
+    raise MocapFormatError(first, f"already exists; {how} to replace it{also}")
 
 
 _NEW_ONLY: ContextVar[frozenset] = ContextVar("mocapkit_new_only", default=frozenset())

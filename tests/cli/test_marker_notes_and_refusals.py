@@ -1,0 +1,25 @@
+"""What ``info`` and ``clean-batch`` say of marker files before any cleaning (trial T3: finding 9)."""
+
+from __future__ import annotations
+
+import shutil
+
+from .helpers import one_error_line, run
+
+
+def test_clean_batch_names_every_output_in_the_way_at_once(tmp_path):
+    """Finding 9: the refusal named only the first existing output; the user fixed it, ran again and met the next."""
+    import mocapkit
+
+    (tmp_path / "in").mkdir()
+    (tmp_path / "out").mkdir()
+    for name in ("G.c3d", "T.c3d"):
+        shutil.copy(mocapkit.samples.path("Eb015pr.c3d"), tmp_path / "in" / name)
+    (tmp_path / "out" / "T.c3d").write_text("mine")
+    (tmp_path / "out" / "G.report.html").write_text("mine")
+    code, stdout, stderr = run("clean-batch", tmp_path / "in", tmp_path / "out", "--jobs", "1", "--report")
+    assert code == 2 and one_error_line(stderr), stdout + stderr
+    error = stderr.strip().splitlines()[-1]
+    assert str(tmp_path / "out" / "T.c3d") in error and str(tmp_path / "out" / "G.report.html") in error, error
+    assert "already exists; pass --overwrite to replace it, and " in error and "which exists too" in error, error
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["G.report.html", "T.c3d"]
