@@ -52,6 +52,8 @@ def info(
         rows += marker_file_contents(obj)
         rows.append(("sha256", f"{take_digest(obj)} (of the samples: a decisions file's \"take\" digest)"))
         print_fields(rows)
+        for note in obj.notes:  # what the reader did (labels repeated, trajectories the header does not count), as clean says
+            console.print(f"note: {file}: {note}")
         if joints:
             console.print(", ".join(obj.labels))
         return
