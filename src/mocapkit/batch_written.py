@@ -5,7 +5,7 @@ record are there is complete. An interrupt (Ctrl-C, SIGTERM) or a stopped pool c
 place and before its row reached the batch's process (a worker's result on its way, or the line not yet printed):
 the take is kept on disk, and its line would be missing from the log. :func:`found_written` finds such takes when
 the batch ends early, and :func:`row_from_record` gives each the row its worker would have given (what was filled,
-flagged, repaired and denoised; a marker capture's spikes and re-labellings), read from the record it wrote.
+flagged, repaired and denoised; a marker capture's changed samples by kind), read from the record it wrote.
 """
 
 from __future__ import annotations
@@ -24,18 +24,19 @@ WRITTEN_NOTE = "written before the batch was interrupted; said from its record"
 def row_from_record(inp, output, record) -> dict:
     """The batch row of the take ``inp`` written to ``output`` with its ``.clean.npz`` ``record``: ``status`` "done",
     the sample counts the record keeps (``frames``; ``filled``, ``repaired``, ``denoised``, ``flagged`` of a
-    joint-angle take; ``filled``, ``spikes``, ``swapped`` of a marker capture), ``seconds`` None (not measured here)
+    joint-angle take; a marker capture's :func:`~mocapkit.cleaning.markers.counts.sample_counts`: ``changed``,
+    ``filled``, ``spikes``, ``swapped``, ``duplicates``, ``foreign``), ``seconds`` None (not measured here)
     and ``reason`` :data:`WRITTEN_NOTE`. Raises :class:`~mocapkit.errors.MocapFormatError` for a record that cannot
     be read."""
     from .cleaning.flags_left import left_line
+    from .cleaning.markers.counts import sample_counts
     from .cleaning.markers.record import read_marker_record
     from .cleaning.pipeline import CleanResult
 
     row = {"input": str(inp), "output": str(output), "status": "done", "reason": WRITTEN_NOTE, "seconds": None}
     if (CleanResult.load_params(record) or {}).get("kind") == "markers":
         rec = read_marker_record(record)
-        row.update(frames=int(rec.changed.shape[0]), filled=int(rec.filled.sum()), spikes=int(rec.spikes.sum()),
-                   swapped=int(rec.swapped.sum()))
+        row.update(frames=int(rec.changed.shape[0]), **sample_counts(rec))
     else:
         res = CleanResult.load(record)
         row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),

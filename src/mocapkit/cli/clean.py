@@ -336,8 +336,12 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
         return f"skipped {row['input']}: {row.get('reason') or 'complete'}"
     found = [plural(row[k], what) for k, what in (("filled", "filled sample"), ("flagged", "flagged sample"),
                                                    ("repaired", "repaired sample"), ("denoised", "denoised sample"),
-                                                   ("spikes", "spike sample"), ("swapped", "re-labelled sample"))
+                                                   ("spikes", "spike sample"), ("swapped", "re-labelled sample"),
+                                                   ("duplicates", "duplicate-label sample"))
              if row.get(k)]
+    if row.get("foreign"):  # the kinds of cleaning.markers.counts: every changed sample said, none filed as unchanged
+        found.append(plural(row["foreign"], "sample of another point under a label",
+                            "samples of other points under their labels"))
     what = ", ".join(found) if found else "nothing to change"
     # flags left as they were and frames detection never judged: the counts alone read as all of it checked
     what = "; ".join([what] + [row[k] for k in ("left", "judged") if row.get(k)])

@@ -6,7 +6,8 @@ self-contained page (no script, no file beside it) with the batch's totals and o
 report, in this order: the takes that failed (their one-line reason), then the takes the cleaning changed, most
 changed samples first (then most flagged), then the takes flagged but left as they were, then the untouched ones.
 Each row says what the take's own line says (:func:`take_counts`): the samples filled, repaired and denoised (a
-marker capture: filled, spikes removed, re-labelled), the samples flagged, the flagged runs left as they were, and
+marker capture: filled, spikes removed, re-labelled, duplicate labels and other points under their labels removed),
+the samples flagged, the flagged runs left as they were, and
 the file that decided it where a person already accepted or rejected its changes.
 
 The page is the batch's own file: :data:`GENERATOR` in its head tells a later batch it may replace it
@@ -19,6 +20,7 @@ import html
 import os
 from pathlib import Path
 
+from ..cleaning.markers.counts import KINDS
 from ..io import atomic_write
 from ..words import plural
 
@@ -44,14 +46,15 @@ tr.failed td{background:#fdecea}tr.changed td.take{border-left:4px solid #e69f00
 def take_counts(row: dict) -> tuple[int, str]:
     """``(changed, words)`` of a batch row (:class:`mocapkit.batch.BatchSummary`'s rows): the samples the cleaning
     changed and what they were, as the take's line says them ("3 filled, 7 repaired"; a marker capture's "3 filled,
-    2 spikes removed, 1 re-labelled"); ``(0, "")`` for a row without counts (a failed take)."""
+    2 spikes removed, 60 duplicate labels removed": every kind of
+    :func:`~mocapkit.cleaning.markers.counts.sample_counts`, and its ``changed``, the samples whose values differ,
+    where the row holds it); ``(0, "")`` for a row without counts (a failed take)."""
     if "spikes" in row:  # a marker capture
-        parts = [("filled", row.get("filled", 0)), ("spikes removed", row.get("spikes", 0)),
-                 ("re-labelled", row.get("swapped", 0))]
+        parts = [(what, row.get(key, 0)) for key, what in KINDS]
     else:
         parts = [("filled", row.get("filled", 0)), ("repaired", row.get("repaired", 0)),
                  ("denoised", row.get("denoised", 0))]
-    changed = int(sum(int(n or 0) for _, n in parts))
+    changed = int(row["changed"]) if row.get("changed") is not None else int(sum(int(n or 0) for _, n in parts))
     return changed, ", ".join(f"{int(n)} {what}" for what, n in parts if n)
 
 
@@ -91,7 +94,8 @@ def write_batch_index(path, rows, *, in_dir, out_dir, request: str = "", version
 
     ``rows``: the batch's rows (:class:`mocapkit.batch.BatchSummary`), each with ``input``, ``output``, ``status``,
     ``reason`` and, for a cleaned or complete take, its counts (``frames``; ``filled``, ``repaired``, ``denoised``,
-    ``flagged``, ``left`` or a marker capture's ``filled``, ``spikes``, ``swapped``), ``report`` (its report's path,
+    ``flagged``, ``left`` or a marker capture's ``changed``, ``filled``, ``spikes``, ``swapped``, ``duplicates``,
+    ``foreign``), ``report`` (its report's path,
     or None) and ``decided`` (the decisions file that decided its output, or ""). ``in_dir``, ``out_dir``: the
     batch's folders (links are relative to ``out_dir``, so the folder can be moved or archived whole);
     ``request``: one line of what the takes were cleaned with; ``version``: mocapkit's.

@@ -40,6 +40,7 @@ import numpy as np
 
 from ...markerset import check_units, subject_of
 from ...words import frame_span, plural
+from .counts import sample_counts
 from .duplicates import find_duplicates
 from .foreign import find_foreign
 from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
@@ -332,7 +333,8 @@ class MarkerCleanResult:
                  plural(counts["spike"], "spike"), plural(int(self.spikes.sum()), "sample"),
                  plural(counts["swap"], "label swap"), plural(int(self.swapped.sum()), "sample")]
         lines = [("would fill {} ({}), remove {} ({}), undo {} ({})" if would else
-                  "{} filled ({}), {} removed ({}), {} undone ({})").format(*sizes)]
+                  "{} filled ({}), {} removed ({}), {} undone ({})").format(*sizes)
+                 + self._removed_counts(would)]
         skip = np.isin(self.markers.labels, self.unlabelled)
         if hasattr(self.original, "modelled"):  # modelled points' unseen samples are no markers' missing ones
             skip = skip | self.original.modelled()
@@ -405,6 +407,21 @@ class MarkerCleanResult:
         if self.frames_note and names_frames:
             lines.append(self.frames_note)
         return lines
+
+    def _removed_counts(self, would: bool) -> str:
+        """The totals line's tail for duplicate labels and foreign stretches removed (:func:`~mocapkit.cleaning.
+        markers.counts.sample_counts`, "" where none): ", 1 duplicate label removed (60 samples)", so that the line
+        counts every changed sample, as ``info`` of the record and ``clean-batch`` do."""
+        counts = sample_counts(self)
+        said = []
+        for kind, key, one, many in (("duplicate", "duplicates", "duplicate label", None),
+                                     ("foreign", "foreign", "foreign stretch", "foreign stretches")):
+            n = sum(1 for x in self.fixes if x.kind == kind)
+            if n:
+                samples = plural(counts[key], "sample")
+                said.append(f"remove {plural(n, one, many)} ({samples})" if would
+                            else f"{plural(n, one, many)} removed ({samples})")
+        return "".join(f", {x}" for x in said)
 
     def save(self, path, written: dict | None = None, request: dict | None = None,
              decided: dict | None = None) -> Path:
