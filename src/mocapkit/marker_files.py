@@ -12,6 +12,7 @@ joint-angle takes.
 from __future__ import annotations
 
 from collections.abc import Mapping
+from contextlib import contextmanager
 from dataclasses import replace
 from pathlib import Path
 from typing import Sequence
@@ -19,7 +20,8 @@ from typing import Sequence
 from .batch_decided import decided_entry, is_own_record, stamp_decided
 from .errors import MocapError
 
-__all__ = ["clean_marker_file", "the_input", "marker_request", "joint_angle_options", "refuse_marker_options"]
+__all__ = ["clean_marker_file", "the_input", "zeros_read_lines", "gaps_bar", "marker_request", "joint_angle_options",
+           "refuse_marker_options"]
 
 
 def marker_request(unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
@@ -68,6 +70,57 @@ def refuse_marker_options(inp, names: Sequence[str]) -> None:
                          f"{', '.join(names)} {'applies' if len(names) == 1 else 'apply'} only to joint-angle takes")
 
 
+@contextmanager
+def gaps_bar(name: str, progress: bool):
+    """A tqdm bar over the gaps a marker cleaning fills (``desc`` "fill NAME", unit "gap"): yields the
+    ``progress(done, more)`` callback :func:`~mocapkit.cleaning.markers.clean_markers` takes, or None without
+    ``progress``. The fills are most of a marker cleaning's time (36 s of silence to minutes on a loaded machine
+    for Qualisys's 03_rolling.c3d, 194 gaps); the bar is drawn from the start, its total set when the gaps are
+    counted, and only on a terminal (:func:`mocapkit.progress.bar_disabled`), on standard error."""
+    if not progress:
+        yield None
+        return
+    import shutil
+
+    from tqdm.auto import tqdm
+
+    from .progress import bar_disabled
+
+    # the terminal's size as shutil reads it (80 x 24 where it reports 0 x 0, as a pseudo-terminal `script` opens
+    # without one does): tqdm's own reading gave 0 rows there, and hid the bar
+    size = shutil.get_terminal_size()
+    bar = tqdm(total=0, desc=f"fill {name}", unit="gap", disable=bar_disabled(True), ncols=size.columns,
+               nrows=size.lines)
+
+    def tick(done: int, more: int = 0) -> None:
+        if more:
+            bar.total += more
+            bar.refresh()
+        if done:
+            bar.update(done)
+
+    try:
+        yield tick
+    finally:
+        bar.close()
+
+
+def zeros_read_lines(zero_gaps: int | None, flags: bool = True) -> list[str]:
+    """The reader's reading of samples stored as exact (0, 0, 0) as gaps, in words, with how to undo it (``flags``:
+    the command line's ``--keep-zeros``, else Python's ``zeros_as_gaps=False``); [] where it read none.
+
+    It drives the fills (all but 5 of 03_rolling.c3d's 24,405 changed samples are its 35,965 zeros read as
+    gaps), yet only the console said it: the report's summary (:func:`mocapkit.report.markers.write_marker_report`'s
+    ``read``) and ``info`` of the record (its ``written["read"]["zero_gaps"]``) say it too, for a reviewer
+    working from them after the run."""
+    from .io.c3d_contents import zero_gaps_line
+
+    if not zero_gaps:
+        return []
+    how = "--keep-zeros" if flags else "zeros_as_gaps=False"
+    return [f"{zero_gaps_line(int(zero_gaps))} ({how} keeps them as positions)"]
+
+
 def the_input(inp, out, original, output) -> bool:
     """Whether the capture ``output`` written to ``out`` is the file ``inp`` itself: the same format (suffix) and
     not one sample changed (:func:`~mocapkit.cleaning.markers.decisions.differs`: position, residual or camera
@@ -88,7 +141,7 @@ def the_input(inp, out, original, output) -> bool:
 def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = False, markers=None, steps=None,
                       unit: str | None = None, max_gap_s: float | None = None, max_error_mm: float | None = None,
                       decisions=None, record=None, review: bool = False, keep_modelled: bool = False,
-                      placed=None, zeros_as_gaps: bool | None = None, flags: bool = False):
+                      placed=None, zeros_as_gaps: bool | None = None, flags: bool = False, progress: bool = False):
     """Clean the marker capture at ``inp`` (.c3d, .trc, marker .npz) into ``out`` (.c3d, .trc or .npz).
 
     :func:`mocapkit.cleaning.markers.clean_markers`, then the reports (HTML
@@ -114,6 +167,8 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     given (:func:`mocapkit.io.load_markers`; None: decided from the data), kept in the record's request and said in
     the report's command. ``flags``: a refusal names the command line's options (``--record``, ``--overwrite``,
     ``--steps detect``), else Python's keywords (``record=``, ``overwrite=True``, ``steps='detect'``).
+    ``progress``: a progress bar over the gaps as they are filled (:func:`gaps_bar`; on standard error, drawn only
+    on a terminal, as the joint-angle cleaning's bar).
     """
     from .cleaning import decisions as dec
     from .cleaning.decided import apply_command
@@ -141,10 +196,12 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
     zeros = {} if zeros_as_gaps is None or inp.suffix.lower() not in (".c3d", ".trc") else {"zeros_as_gaps": zeros_as_gaps}
     ms = markers if markers is not None else load_markers(inp, **({} if unit is None else {"units": unit}), **zeros)
     request = marker_request(unit, max_gap_s, max_error_mm, review, zeros_as_gaps)
-    res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,
-                                       max_error_mm=max_error_mm, decisions=decisions,
-                                       record=record if reuse else None, review=review, request=request,
-                                       take=inp.name, option=option)
+    with gaps_bar(inp.name, progress and not reuse) as tick:  # minutes on a long capture: said as it goes
+        res, given = mdec.clean_and_decide(ms, name=str(inp), steps=steps, max_gap_s=max_gap_s,
+                                           max_error_mm=max_error_mm, decisions=decisions,
+                                           record=record if reuse else None, review=review, request=request,
+                                           take=inp.name, option=option, progress=tick)
+    read = zeros_read_lines(ms.zero_gaps, flags)  # the reader's decision the fills rest on: in the report and the record
     note = dec.frames_note(inp, ms)  # the summary says how its frames relate to the file's
     res, given = replace(res, frames_note=note), replace(given, frames_note=note)
     chosen = None if given.decided is None else dec.read_decisions(decisions)["decisions"]
@@ -161,7 +218,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
                                                    record=record if reuse or placed is None else clean_path(placed),
                                                    command=apply_command(inp, unit=unit,
                                                                          zeros_as_gaps=zeros_as_gaps)),
-                                review_mode=review)
+                                review_mode=review, read=read)
         if png is not None:
             from .report.markers import plot_marker_fixes
 
@@ -176,6 +233,7 @@ def clean_marker_file(inp, out, *, report=None, png=None, overwrite: bool = Fals
             stamp_decided(record, decisions, out, given.decided.holds())
         if not reuse:  # last: the completion marker
             # a new cleaning, decided: its record says so, as one decided in place does (batch_decided)
-            res.save(record, written={"input": taken, "output": file_facts(out)}, request=request,
+            said = {"read": {"zero_gaps": int(ms.zero_gaps)}} if ms.zero_gaps else {}  # info of the record says it
+            res.save(record, written={"input": taken, "output": file_facts(out), **said}, request=request,
                      decided=None if chosen is None else decided_entry(decisions, out, given.decided.holds()))
     return ms, given

@@ -1,4 +1,4 @@
-"""Every view of one marker cleaning says the same changes (trial T3: finding 1).
+"""Every view of one marker cleaning says the same changes (trial T3: findings 1, 5 and 6).
 
 One batch of two short takes cut from the bundled 85_02.c3d (120 frames each) is cleaned once: ``dup.c3d`` with a
 duplicate label (RTOE put on RMT5's position for 60 frames: its only change) and ``zeros.c3d`` with ten samples of
@@ -8,6 +8,7 @@ LKNE stored as exact (0, 0, 0) (read as gaps and filled). The batch's line, its 
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +65,32 @@ def test_the_batch_row_read_back_from_a_record_counts_the_removed_samples_too(vi
     row = row_from_record(inp / "dup.c3d", out / "dup.c3d", out / "dup.clean.npz")
     assert (row["changed"], row["duplicates"], row["foreign"]) == (60, 60, 0)
     assert take_counts(row) == (60, "60 duplicate labels removed")
+
+
+def test_samples_read_from_zeros_as_gaps_are_said_in_the_report_and_the_record(views):
+    """Finding 5: the reader's reading of exact (0, 0, 0) samples as gaps, which drives the fills, was said on the
+    console only: the report's summary and ``info`` of the record never named it."""
+    _, out, _ = views
+    said = "read 10 samples stored as exact (0, 0, 0) as gaps (--keep-zeros keeps them as positions)"
+    report = (out / "zeros.report.html").read_text()
+    summary = report[report.index("<ul>"):report.index("</ul>")]
+    assert f"<li>{said}</li>" in summary, summary
+    code, info, _ = run("info", out / "zeros.clean.npz")
+    assert code == 0 and f"zeros    {said}" in info, info
+    code, info, _ = run("info", out / "dup.clean.npz")  # no zeros read: no such row
+    assert "(0, 0, 0)" not in info
+
+
+def test_marker_clean_draws_a_progress_bar_over_its_gaps(views, tmp_path, monkeypatch):
+    """Finding 6: the marker path said nothing while it filled (36 s to minutes on 03_rolling.c3d); the bar is the
+    joint-angle path's (tqdm on standard error, drawn where MOCAPKIT_PROGRESS=1 or on a terminal)."""
+    inp, _, _ = views
+    monkeypatch.setenv("MOCAPKIT_PROGRESS", "1")
+    code, stdout, stderr = run("clean", inp / "zeros.c3d", "-o", tmp_path / "z.c3d")
+    assert code == 0, stdout + stderr
+    done = re.findall(r"fill zeros\.c3d: 100%.*?(\d+)/(\d+) ", stderr)
+    assert done and done[-1][0] == done[-1][1] != "0", stderr
+    assert "fill zeros.c3d" not in stdout
 
 
 def test_sample_counts_split_the_removed_samples_into_duplicate_labels_and_foreign_stretches():

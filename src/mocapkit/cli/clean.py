@@ -265,7 +265,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     from ..cleaning.markers.decisions import tied_lines
     from ..cleaning.pipeline import clean_path
     from ..io import marker_notes
-    from ..io.c3d_contents import marker_counts, zero_gaps_line
+    from ..io.c3d_contents import marker_counts
+    from ..marker_files import zeros_read_lines
     from ..io.takes import load_take
     from ..markerset import MarkerSet
 
@@ -284,7 +285,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
             True, record_said)
     _, res = clean_marker_file(inp, out, report=report, png=png, overwrite=overwrite, markers=take,
                                max_gap_s=max_gap_s, max_error_mm=max_error_mm, decisions=decisions, record=record,
-                               review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps, flags=True)
+                               review=review, keep_modelled=keep_modelled, zeros_as_gaps=zeros_as_gaps, flags=True,
+                               progress=True)  # a bar over the gaps filled, as the joint-angle path has (a terminal only)
     if res.decided is not None:
         _print_decided(_written(out, record, report, png), res.decided, res.frames_note)
         for note in marker_notes(take, out, inp, keep_modelled=keep_modelled, filled=res.fill_mask):
@@ -299,8 +301,8 @@ def _clean_marker_take(inp: Path, out: Path, *, report, png, overwrite: bool, no
     if take.units_from != "file":  # the unit every mm figure below rests on
         how = "given with --unit" if take.units_from == "given" else "inferred from the marker distances; --unit sets it"
         console.print(f"  length unit {take.units}: the file states none ({how})")
-    if take.zero_gaps:  # the gaps below include these; --keep-zeros reads the file's samples as positions
-        console.print(f"  {zero_gaps_line(take.zero_gaps)} (--keep-zeros keeps them as positions)")
+    for line in zeros_read_lines(take.zero_gaps):  # the gaps below include these; the report and record say it too
+        console.print(f"  {line}")
     for line in res.summary():
         console.print(f"  {line}")
     for line in tied_lines(take, res.markers, res.fixes):  # changes a person must decide together, and why

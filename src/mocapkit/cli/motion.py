@@ -417,27 +417,35 @@ def _info_of_own_file(path: Path) -> bool:
         return True
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
         from ..cleaning.markers.clean import left_too_long
+        from ..cleaning.markers.counts import KINDS, sample_counts
         from ..cleaning.markers.record import read_marker_record
         from ..cleaning.pipeline import CleanResult
 
         rec = read_marker_record(path)
+        counts = sample_counts(rec)
         try:  # what a cleaning was asked, and decisions applied (a damaged member: left unsaid, as before)
             kept = CleanResult.load_params(path) or {}
         except MocapFormatError:
             kept = {}
         review = isinstance(kept.get("request"), dict) and kept["request"].get("review") is True
+        written = kept.get("written") if isinstance(kept.get("written"), dict) else {}
+        zeros = (written.get("read") or {}).get("zero_gaps") if isinstance(written.get("read"), dict) else None
         rows = [("file", str(path)), ("kind", "marker cleaning record (mocapkit clean of a marker capture)"
                                               + (", review mode (--steps detect)" if review else "")),
                 ("frames", str(rec.num_frames)), ("markers", str(len(rec.labels))),
-                ("changed", f"{plural(int(rec.changed.sum()), 'marker sample')} (filled {int(rec.filled.sum())}, "
-                            f"spikes removed {int(rec.spikes.sum())}, re-labelled {int(rec.swapped.sum())}"
-                            + (f", {rec.duplicates_as} removed {int(rec.duplicates.sum())}" if rec.duplicates.any() else "")
-                            + ")"),
+                # the kinds every view of a cleaning counts (cleaning.markers.counts): the clean, the batch, the index
+                ("changed", f"{plural(counts['changed'], 'marker sample')} ("
+                            + ", ".join(f"{what} {counts[key]}" for k, (key, what) in enumerate(KINDS)
+                                        if k < 3 or counts[key]) + ")"),
                 ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
                           f"{plural(rec.count('swap'), 'label swap')} undone"
                           + (f", {plural(rec.count('duplicate'), 'duplicate label')} removed" if rec.count('duplicate') else "")
                           + (f", {plural(rec.count('foreign'), 'foreign stretch', 'foreign stretches')} removed"
                              if rec.count('foreign') else ""))]
+        if isinstance(zeros, int) and zeros > 0:  # the reader's decision the fills rest on, as clean said it
+            from ..marker_files import zeros_read_lines
+
+            rows.append(("zeros", zeros_read_lines(zeros)[0]))
         if rec.coincident:
             rows.append(("coincident", f"{plural(len(rec.coincident), 'run')} of two markers at one position, "
                                        "which is the duplicate not told (left as recorded)"))

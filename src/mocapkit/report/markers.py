@@ -182,7 +182,7 @@ def _marker_framing(points, frames: np.ndarray, fps: float, up: int) -> dict:
 
 
 def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000, up_axis: int | None = None,
-                        review: dict | None = None, review_mode: bool = False) -> Path:
+                        review: dict | None = None, review_mode: bool = False, read=()) -> Path:
     """Write the HTML marker viewer of ``result`` (a MarkerCleanResult) to ``path``; returns the path.
 
     Up to ``max_frames`` frames every frame is kept; a longer capture keeps every
@@ -196,7 +196,9 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     report's list (:func:`mocapkit.report.html.review_parts`); ``review_mode`` (or ``result.review``): the
     capture was only reviewed (``--steps detect``), the page says its output holds the input unchanged. With
     decisions applied, ``result`` is the decided one
-    (:func:`mocapkit.cleaning.markers.decisions.decided_result`): the viewer draws the capture written.
+    (:func:`mocapkit.cleaning.markers.decisions.decided_result`): the viewer draws the capture written. ``read``:
+    lines on how the file was read that the changes rest on (samples stored as (0, 0, 0) read as gaps:
+    :func:`mocapkit.marker_files.zeros_read_lines`), said first in the summary.
     """
     from ..io import atomic_write
     from .html import review_parts
@@ -254,7 +256,9 @@ def write_marker_report(path, result, *, title: str = "", max_frames: int = 3000
     lines = result.summary()
     if review_mode or result.review:
         lines = ["review mode (--steps detect): the capture was written unchanged; the fixes below are what "
-                 "cleaning would change"] + dataclasses.replace(result, review=False).summary()
+                 "cleaning would change"] + list(read) + dataclasses.replace(result, review=False).summary()
+    else:
+        lines = list(read) + lines
     summary = "".join(f"<li>{html.escape(s)}</li>" for s in lines)
     review_css, review_block, review_js = review_parts(review)
     head = html.escape(title or result.markers.name or "marker capture")

@@ -569,8 +569,8 @@ def decided_result(original, result: MarkerCleanResult, decisions: Mapping[str, 
 
 
 def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error_mm=None, decisions=None,
-                     record=None, review: bool = False, request=None, take: str = "", option: str = RECORD_FLAG
-                     ) -> tuple[MarkerCleanResult, MarkerCleanResult]:
+                     record=None, review: bool = False, request=None, take: str = "", option: str = RECORD_FLAG,
+                     progress=None) -> tuple[MarkerCleanResult, MarkerCleanResult]:
     """A marker capture cleaned (or its earlier ``record`` read back), then reviewed or decided: the one path of
     ``mocapkit.clean`` and ``mocapkit clean`` for a marker capture.
 
@@ -582,7 +582,7 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
     mode, nothing changed (not with ``decisions``). ``request``: the options asked for
     (:func:`mocapkit.marker_files.marker_request`), named where a new cleaning's digest differs; ``take``: the
     input's file name for the summary; ``option``: how a refusal names the record to give (the CLI's ``--record``,
-    :func:`mocapkit.clean`'s ``record=``).
+    :func:`mocapkit.clean`'s ``record=``); ``progress``: :func:`~mocapkit.cleaning.markers.clean_markers`'s.
 
     Returns ``(cleaning, given)``: the whole cleaning (what a record keeps) and what comes back: the cleaning in
     review mode (``review=True``), :func:`decided_result` with decisions, else the cleaning itself. Every refusal is
@@ -607,7 +607,8 @@ def clean_and_decide(original, *, name="", steps=None, max_gap_s=None, max_error
         res = result_from_record(original, rec)
     else:
         try:
-            res = clean_markers(original, steps=steps or STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm)
+            res = clean_markers(original, steps=steps or STEPS, max_gap_s=max_gap_s, max_error_mm=max_error_mm,
+                                progress=progress)
         except ValueError as exc:
             raise MocapError(f"{name}: {exc}") from None
     if review:

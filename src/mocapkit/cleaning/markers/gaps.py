@@ -455,7 +455,7 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
               unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES, subjects=None,
-              markers=None, max_error=None, first_frame: int = 0) -> tuple[np.ndarray, list[GapFill]]:
+              markers=None, max_error=None, first_frame: int = 0, progress=None) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once, except where none of its subject's markers is.
 
     Parameters
@@ -507,6 +507,10 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     first_frame : int
         The frame number of ``positions``' first frame in the take it is part
         of: the frames a record's ``implausible`` names count from it.
+    progress : callable, optional
+        ``progress(done, more)``: called with ``(0, N)`` when ``N`` gaps are
+        about to be filled (each stretch of a subject's frames announces its
+        own) and ``(1, 0)`` as each is done (a command's progress bar).
 
     Returns
     -------
@@ -546,7 +550,7 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
                                              max_gap=max_gap, constrain=constrain, predictors=predictors, guard=guard,
                                              unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine,
                                              max_error=error_limits(stats, unit_mm) if max_error is None else max_error,
-                                             first_frame=first_frame + lo)
+                                             first_frame=first_frame + lo, progress=progress)
             out[lo:hi, mine] = inner[:, mine]
             records += [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     if not todo.any():
@@ -556,16 +560,22 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     worst = error_limits(stats, unit_mm) if max_error is None else np.broadcast_to(np.asarray(max_error, float), (m_count,))
     split = records
     records = []
+    if progress is not None:
+        progress(0, sum(len(gap_runs(missing[:, m])[0]) for m in np.flatnonzero(todo)))
     for m in np.flatnonzero(todo):
         for a, b in zip(*gap_runs(missing[:, m])):
             a, b = int(a), int(b)
             if max_gap is not None and b - a > max_gap:  # left missing, and said so
                 records.append(GapFill(int(m), a, b, "", implausible=f"{TOO_LONG} ({max_gap} frames)"))
+                if progress is not None:
+                    progress(1, 0)
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
                             limits, unit_mm, smooth, float(worst[m]), first_frame)
             if rec is not None:
                 records.append(rec)
+            if progress is not None:
+                progress(1, 0)
     if constrain and any(r.constrained for r in records):
         free = np.zeros(missing.shape, dtype=bool)
         for r in records:
