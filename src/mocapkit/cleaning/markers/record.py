@@ -66,14 +66,6 @@ class MarkerRecord:
         """How many fixes of ``kind`` ("gap", "spike", "swap", "duplicate", "foreign") the record lists."""
         return sum(1 for f in self.fixes if f.get("kind") == kind)
 
-    @property
-    def duplicates_as(self) -> str:
-        """What the ``duplicates`` mask's removed samples were, in words: "duplicate labels", "other points under
-        their labels" (foreign stretches) or both, by the fixes listed (a record before foreign stretches: the first)."""
-        words = [w for k, w in (("duplicate", "duplicate labels"), ("foreign", "other points under their labels"))
-                 if self.count(k)]
-        return " or ".join(words) or "duplicate labels"
-
 
 def is_marker_record(arrays: dict) -> bool:
     """Whether the npz members ``arrays`` (name -> array, or a set of names with ``kind`` read) are a marker record."""
