@@ -810,3 +810,40 @@ def test_a_c3d_written_from_a_trc_says_it_rounds_the_coordinates_to_32_bit_float
     assert np.max(np.abs(back.positions - ms.positions)) == pytest.approx(6.1e-05, abs=5e-7)
     c3d = load_markers(mocapkit.samples.path("Eb015pr.c3d"))
     assert not any("32-bit" in n for n in marker_notes(c3d, tmp_path / "x.c3d"))
+
+
+def test_a_changed_row_keeps_its_own_width_and_trailing_tab(tmp_path):
+    # trialT3 8: a changed row was padded to the widest row's fields (Gait.trc: 102 -> 317), so a diff showed
+    # every changed row rewritten whole; only the changed samples' fields are, extended no further than needed
+    rows = _rows(frames=20, markers=3)
+    lines = _crlf_trc(rows, labels=("A", "B", "C")).split(b"\r\n")
+    for i in range(6 + 10, 6 + 20):  # rows 10-19 end after B's Z (and its tab): C is missing there
+        lines[i] = b"\t".join(lines[i].split(b"\t")[:8]) + b"\t"
+    path = tmp_path / "cap.trc"
+    path.write_bytes(b"\r\n".join(lines))
+    ms = read_trc(path)
+    assert ms.missing()[10:, 2].all() and not ms.missing()[:10].any()
+    pos = np.array(ms.positions)
+    pos[12, 1] += 0.001  # inside the short row
+    pos[15, 2] = pos[9, 2]  # C filled past the short row's end
+    pos[3, 0] += 0.001  # a full row
+    b = save_markers(ms.with_positions(pos), tmp_path / "out.trc").read_bytes().split(b"\r\n")
+    assert [i - 6 for i in range(len(lines)) if lines[i] != b[i]] == [3, 12, 15]
+    assert [len(b[6 + r].split(b"\t")) for r in (3, 12, 15)] == [12, 9, 11]  # own width; C's 3 fields and no more
+    assert b[6 + 12].endswith(b"\t") and b[6 + 12].split(b"\t")[:5] == lines[6 + 12].split(b"\t")[:5]
+    back = read_trc(tmp_path / "out.trc")
+    assert np.allclose(back.positions[15, 2], pos[15, 2], atol=1e-8) and back.missing()[16:, 2].all()
+
+
+def test_gait_trc_changed_rows_keep_their_own_width(shared_data, tmp_path):
+    # trialT3 8 on the file it was found on: rows of 102 fields (33 markers and a trailing tab) of the 317 widest
+    src = _file(shared_data, f"{TRC}/Gait.trc")
+    gait = read_trc(src)
+    a = src.read_bytes().split(b"\n")
+    short = next(r for r in range(gait.num_frames) if len(a[6 + r].split(b"\t")) == 102)
+    pos = np.array(gait.positions)
+    pos[short, 0] += 1.0  # a sample inside the row
+    b = save_markers(gait.with_positions(pos), tmp_path / "g.trc").read_bytes().split(b"\n")
+    assert [i for i in range(len(a)) if a[i] != b[i]] == [6 + short]
+    old, new = a[6 + short].split(b"\t"), b[6 + short].split(b"\t")
+    assert len(new) == 102 and old[:2] == new[:2] and old[5:] == new[5:]

@@ -583,8 +583,11 @@ def _edited_text(markers: MarkerSet, source: MarkerSource, decimals: int) -> str
         if same.all():
             out.append(line)
             continue
-        fields += [""] * (2 + 3 * M - len(fields))
-        for k in np.flatnonzero(~same):
+        # a row shorter than the widest (Gait.trc: 102 fields of 317) keeps its own width and trailing tabs:
+        # extended only as far as a sample written past its end needs (a removed one there is empty already)
+        changed = np.flatnonzero(~same)
+        fields += [""] * (5 + 3 * int(changed[-1]) - len(fields))
+        for k in changed:
             fields[2 + 3 * k : 5 + 3 * k] = ["" if math.isnan(v) else fmt.format(v) for v in new[k].tolist()]
         out.append("\t".join(fields) + line[len(body):])
     header = list(lines[: at[0]])
