@@ -137,3 +137,57 @@ def test_a_resampled_take_written_like_its_own_file_keeps_its_events(tmp_path):
     moved = dataclasses.replace(part, positions=part.positions + 5.0)  # 5 mm off the file's samples
     for name, other in (("shifted", shifted), ("moved", moved)):
         assert _header_events(save_markers(other, tmp_path / f"{name}.c3d", like=EB015PR))[0] == [], name
+
+
+def _parameter_changes(before, after) -> list[str]:
+    """What differs between two C3D files' parameter sections as ezc3d reads them: ``GROUP:NAME field`` for each
+    parameter whose type, description, lock or values differ, ``+GROUP``/``-GROUP`` for a group added or lost,
+    ``GROUP`` for a group's description or lock, ``+GROUP:NAME``/``-GROUP:NAME`` for a parameter."""
+    import ezc3d
+
+    a, b = ezc3d.c3d(str(before))["parameters"], ezc3d.c3d(str(after))["parameters"]
+    out = [f"+{g}" for g in b if g not in a] + [f"-{g}" for g in a if g not in b]
+    for g in (g for g in a if g in b):
+        out += [g] if a[g]["__METADATA__"] != b[g]["__METADATA__"] else []
+        out += [f"+{g}:{k}" for k in b[g] if k not in a[g]] + [f"-{g}:{k}" for k in a[g] if k not in b[g]]
+        for k in (k for k in a[g] if k in b[g] and k != "__METADATA__"):
+            x, y = a[g][k], b[g][k]
+            out += [f"{g}:{k} {f}" for f in ("type", "description", "is_locked") if x[f] != y[f]]
+            same = np.shape(x["value"]) == np.shape(y["value"]) and np.array_equal(np.asarray(x["value"]),
+                                                                                   np.asarray(y["value"]))
+            out += [] if same else [f"{g}:{k} value"]
+    return sorted(out)
+
+
+def test_a_changed_take_keeps_every_parameter_as_read(tmp_path):
+    """trialT3 4: with a sample changed, Eb015pr.c3d came back with POINT:LABELS 48 -> 26 (the session's 12
+    spare names), ANALOG:LABELS, DESCRIPTIONS, SCALE, OFFSET and UNITS 32 -> 16, POINT:DESCRIPTIONS 20 -> 26
+    and ezc3d's own ROTATION and EZC3D groups added. Every parameter comes back as read, the data too."""
+    take = load_markers(EB015PR)
+    pos = np.array(take.positions)
+    seen = np.flatnonzero(~take.missing()[:, 0])[:3]
+    pos[seen, 0] += 1.0
+    out = save_markers(take.with_positions(pos), tmp_path / "eb.c3d")
+    assert _parameter_changes(EB015PR, out) == []
+    back = load_markers(out)
+    assert np.array_equal(back.source.analogs, take.source.analogs) and back.source.events == take.source.events
+    assert np.array_equal(np.delete(back.positions, 0, 1), np.delete(take.positions, 0, 1), equal_nan=True)
+    kept = np.ones(take.residuals.shape, bool)
+    kept[seen, 0] = False
+    assert np.array_equal(back.residuals[kept], take.residuals[kept])
+    assert np.array_equal(back.cameras[kept], take.cameras[kept])
+    assert back.residuals[seen, 0].tolist() == [0.0] * 3 and back.cameras[seen, 0].tolist() == [0] * 3
+    # the c3d package, which other tools of a lab use, reads the file and its spare labels
+    import c3d
+
+    with open(out, "rb") as fh:
+        labels = [s.strip() for s in c3d.Reader(fh).get("POINT:LABELS").string_array]
+    assert len(labels) == 48 and labels[26:30] == ["TR2", "TR3", "RA", "LA"]
+
+
+def test_a_part_of_a_qualisys_take_keeps_every_parameter_but_its_length(shared_data, tmp_path):
+    """trialT3 4: 03_rolling.c3d's ANALOG:DESCRIPTIONS, SCALE and UNITS lost their descriptions ('Analog
+    Descriptions' ...) when written; a part of it differs from the file only in the frames it states."""
+    path = shared_data / "c3d_markers_recovery" / "03_rolling.c3d"
+    out = save_markers(load_markers(path)[:50], tmp_path / "part.c3d")
+    assert _parameter_changes(path, out) == ["POINT:FRAMES value", "POINT:LONG_FRAMES value"]

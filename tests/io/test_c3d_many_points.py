@@ -67,7 +67,7 @@ def test_a_c3d_of_300_points_is_written_back_whole(tmp_path, monkeypatch):
 
 def test_the_descriptions_of_300_points_are_written_whole(tmp_path):
     """Past 255 points ezc3d states its own blank first 255 POINT:DESCRIPTIONS (a list of 255 is not one per
-    point to it); the writer puts the take's over them (c3d_layout.put_texts), DESCRIPTIONS2 beside."""
+    point to it); the writer puts the take's over them (c3d_section.keep_parameters), DESCRIPTIONS2 beside."""
     import ezc3d
 
     src, out = tmp_path / "m300.c3d", tmp_path / "out.c3d"

@@ -18,8 +18,9 @@ Residuals and camera masks are read from each point's fourth word as
 the C3D guide defines it (:func:`point_words`: ezc3d 1.7 swaps its two
 bytes), and the header's events (:func:`~mocapkit.io.c3d_layout.header_events`) are kept.
 
-:func:`write_c3d` writes with ezc3d and keeps every other parameter group and
-the analog channels of the file read, and an integer file's 16-bit storage
+:func:`write_c3d` writes with ezc3d and keeps every other parameter as read
+(:func:`~mocapkit.io.c3d_section.keep_parameters`: entries past POINT:USED and
+ANALOG:USED, descriptions and locks included) and the analog channels of the file read, and an integer file's 16-bit storage
 (:func:`~mocapkit.io.c3d_layout.integer_data`). Coordinates and analog samples
 are read as the float32 values a float C3D holds (:func:`_float32_values`), so
 that what is written back reads the same, bit for bit, wherever a command did
@@ -48,9 +49,10 @@ from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point
                          zero_gap_words)
 from .c3d_layout import (header_events, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
                          oversized_parameter, parameter_values, put_analogs, put_header_events, put_header_gap,
-                         put_parameter, put_spare_events, put_texts, spare_events, stored_analogs, text_chunks,
+                         put_spare_events, spare_events, stored_analogs, text_chunks,
                          with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
+from .c3d_section import keep_parameters
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
                          trial_span, written_first)
@@ -567,6 +569,13 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     labels = [label.strip() for label in markers.file_labels()]
     same_markers = old_labels[:M] == labels
     texts = [str(v) for v in _parts(point, "DESCRIPTIONS")]  # the file's per-marker descriptions
+    # the values the file states past the points and channels written (its spare labels: Eb015pr.c3d's 48 for 26
+    # points; its unused channels' LABELS ... OFFSET: 32 for 16), kept where the points (channels) are the file's
+    # own, all of them in its order; ezc3d writes each cut to USED, keep_parameters writes them as ``full`` says
+    whole = same_markers and source is not None and M == len(source.labels or ())
+    full = {("POINT", "LABELS"): (None, labels + ([str(v) for v in _parts(point, "LABELS")][M:] if whole else []))}
+    if whole and "DESCRIPTIONS" in point:  # as the file has them (Eb015pr.c3d: 20 for 26 points)
+        full[("POINT", "DESCRIPTIONS")] = dict(point["DESCRIPTIONS"], type=-1), texts
     described = dict(point["DESCRIPTIONS"]) if "DESCRIPTIONS" in point and same_markers else None
     for k in list(point):
         # POINT:DATA_START stays: ezc3d writes its own value there, keeping the file's description and lock
@@ -588,11 +597,14 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     A = 0 if analogs is None else analogs.shape[0]
     for key in ("LABELS", "DESCRIPTIONS", "UNITS"):  # one text per channel written, LABELS2... folded in
         old = dict(analog.get(key, {}))  # its description and lock kept, as the file had them
-        values = [str(v) for v in _parts(analog, key, pop=True)]
+        meta = {"type": -1, "description": old.get("description", ""), "is_locked": old.get("is_locked", False)}
+        read = values = [str(v) for v in _parts(analog, key, pop=True)]
         if key == "LABELS" or values:
             values = (values + [f"Analog{i + 1}" if key == "LABELS" else "" for i in range(len(values), A)])[:A]
-            analog.update(text_chunks(key, {"type": -1, "description": old.get("description", ""),
-                                            "is_locked": old.get("is_locked", False)}, values))
+            analog.update(text_chunks(key, meta, values))
+        if old or key == "LABELS":  # stated as read (a label for each channel written), or none where none is
+            full[("ANALOG", key)] = meta, ((values if key == "LABELS" else read[:A]) + read[A:]
+                                           if analogs is not None else values)
     # the numbers the file stored under its own scales and offsets (stored_analogs), else the values read, scale 1;
     # a file without analogs whose ANALOG:RATE says 0 keeps saying so (the frame rate written there read as an
     # analog rate)
@@ -605,6 +617,10 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     for key, typ, value in (("SCALE", 4, scales), ("OFFSET", 2, np.zeros(A, dtype=int)), ("GEN_SCALE", 4, np.array([gen])),
                             ("RATE", 4, np.array([rate]))):
         old = analog.get(key, {})
+        if key in ("SCALE", "OFFSET"):  # the channels written's, then those the file states past them
+            spare = np.ravel(_parts(source.parameters.get("ANALOG", {}), key))[A:] if analogs is not None else []
+            full[("ANALOG", key)] = None, np.concatenate([offsets if key == "OFFSET" else value, spare]).astype(
+                int if key == "OFFSET" else float)
         for k in [f"{key}{i}" for i in range(2, 100)]:  # past 255 channels: SCALE2, OFFSET2 ... made anew
             analog.pop(k, None)
         analog.update(text_chunks(key, {"type": typ, "description": old.get("description", ""),
@@ -634,7 +650,26 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
                 # ezc3d writes a list of empty texts with no columns, which reads back as no text at all ([''] ->
                 # []); a space each keeps its entries, read back as the empty texts they were
                 c["parameters"][group][key] = dict(param, value=[" "] * len(value))
-    return c, None if analogs is None else stored, offsets
+    return c, None if analogs is None else stored, _wanted(c["parameters"], full)
+
+
+def _wanted(parameters: dict, full: dict) -> dict:
+    """The parameters a written file states (:func:`~mocapkit.io.c3d_section.keep_parameters`): a copy of
+    ``parameters`` (those handed to ezc3d) with each (GROUP, NAME) of ``full`` stating the values given there
+    (the points' or channels' written, then those the file states past them), split NAME, NAME2 ... past 255
+    entries: ``full`` maps it to ``(meta, values)``, ``meta`` its type, description and lock (None: those of
+    ``parameters``' own, where it has one)."""
+    import copy
+
+    out = {group: copy.deepcopy(dict(params)) for group, params in parameters.items()}  # ezc3d holds its own class
+    for (group, key), (meta, values) in full.items():
+        params = out.get(group, {})
+        if meta is None and key not in params:
+            continue
+        meta = {k: (meta or params[key])[k] for k in ("type", "description", "is_locked")}
+        _parts(params, key, pop=True)
+        params.update(text_chunks(key, meta, values))
+    return out
 
 
 def _data_block(data: bytearray, frames: int, points: int) -> np.ndarray:
@@ -713,21 +748,6 @@ def _ezc3d_bytes(c, path: Path, frames: int, points: int) -> bytearray:
                 pass
 
 
-def _put_first_parts(data: bytearray, parameters: dict) -> bytearray:
-    """``data`` (the file ezc3d wrote) with the first 255 entries of a per-point or per-channel parameter split
-    past 255 (:func:`~mocapkit.io.c3d_layout.text_chunks`: NAME2 written beside NAME) as ``parameters`` has
-    them: ezc3d writes its own there (blank POINT:DESCRIPTIONS, ANALOG:DESCRIPTIONS and UNITS, ANALOG:SCALE 1)."""
-    for group, key in (("POINT", "DESCRIPTIONS"), ("ANALOG", "DESCRIPTIONS"), ("ANALOG", "UNITS"), ("ANALOG", "SCALE")):
-        if f"{key}2" not in parameters[group] or key not in parameters[group]:
-            continue
-        value = parameters[group][key]["value"]
-        if key == "SCALE":
-            put_parameter(data, group, key, np.asarray(value, dtype=np.float64))
-        elif any(str(v).strip() for v in value):
-            data = put_texts(data, group, key, list(value))
-    return data
-
-
 def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False) -> None:
     """Write ``markers`` to a C3D file with ezc3d, atomically (temp file + rename).
 
@@ -749,7 +769,9 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     (:mod:`mocapkit.io.c3d_trial`). Rate and units come from ``markers``; every other parameter group and the
     analog channels come from ``like`` (a MarkerSet or a C3D file) or, by
     default, from the file ``markers`` was read from (``markers.source``), with
-    POINT:USED and the frame counts made consistent by ezc3d. Analogs are
+    POINT:USED and the frame counts made consistent by ezc3d; every parameter is then written as ``source``
+    states it, the entries past POINT:USED and ANALOG:USED included where the points (channels) are all the
+    file's, and no group of ezc3d's own (:func:`~mocapkit.io.c3d_section.keep_parameters`). Analogs are
     kept when they span the same frames as the points, as the numbers the file
     stored under its ANALOG:OFFSET, SCALE and GEN_SCALE; the header's
     interpolation gap and the data block's start are the file's where ezc3d's
@@ -772,12 +794,13 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
     first = max(int(markers.source.first_frame), 1) if markers.source is not None else 1
     # the clock of those frame numbers: the file's rate (a resampled take's is not the file's)
     rate = trial_rate(markers.source.layout, markers.fps) if markers.source is not None else markers.fps
-    c, stored, offsets = _c3d_object(markers, source, own, first, rate)
-    oversized = oversized_parameter(c["parameters"])
+    c, stored, wanted = _c3d_object(markers, source, own, first, rate)
+    oversized = oversized_parameter(c["parameters"]) or oversized_parameter(wanted)
     if oversized:
         raise MocapFormatError(path, f"cannot write C3D: {oversized}, more than the 255 a C3D parameter states")
     data = _ezc3d_bytes(c, path, markers.num_frames, markers.num_markers)
-    data = _put_first_parts(data, c["parameters"])
+    # every parameter as the file read states it, ezc3d's own groups left out (ROTATION kept past 65,535 frames)
+    data = keep_parameters(data, wanted, ("ROTATION",) if markers.num_frames > FRAME_CAP else ())
     # ezc3d writes -1 as the header's scale whatever POINT:SCALE says; readers that check the two
     # agree (the c3d package) refuse the mismatch, so the header gets POINT:SCALE (Intel byte order).
     scale = float(c["parameters"]["POINT"]["SCALE"]["value"][0])
@@ -788,8 +811,6 @@ def write_c3d(markers: MarkerSet, path, *, like=None, stored_zeros: bool = False
         put_stored_zeros(_data_block(data, markers.num_frames, markers.num_markers), markers, scale)
     if stored is not None:
         put_analogs(data, markers.num_frames, markers.num_markers, stored)
-        for name, part in text_chunks("OFFSET", {}, offsets).items():  # OFFSET, OFFSET2 ... past 255 channels
-            put_parameter(data, "ANALOG", name, part["value"])
     events = fit_header_events(source.events, own, markers.fps, first, markers.num_frames, trial_span(source.layout),
                                rate) if source is not None else ()
     put_header_events(data, events)

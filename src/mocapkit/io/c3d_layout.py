@@ -38,7 +38,7 @@ import numpy as np
 __all__ = ["parameter_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
            "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
            "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
-           "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks", "put_texts",
+           "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
            "oversized_parameter"]
 
 BLOCK = 512
@@ -60,8 +60,8 @@ def text_chunks(name: str, param: dict, values) -> dict[str, dict]:
     ``param``: the parameter as the file had it (description, lock), put on
     each part. ezc3d's writer states its own first part of POINT:DESCRIPTIONS
     and ANALOG:DESCRIPTIONS, UNITS, SCALE and OFFSET where the list is not one
-    per point or channel (blank texts, scale 1, offset 0): :func:`put_texts`
-    and :func:`put_parameter` write the first part over it.
+    per point or channel (blank texts, scale 1, offset 0):
+    :func:`~mocapkit.io.c3d_section.keep_parameters` writes the first part over it.
     """
     parts = [values[i:i + PARAMETER_ENTRIES] for i in range(0, len(values), PARAMETER_ENTRIES)] or [values[:0]]
     return {name + (str(i + 1) if i else ""): dict(param, value=part) for i, part in enumerate(parts)}
@@ -385,65 +385,6 @@ def oversized_parameter(parameters: dict) -> str | None:
             elif any(d > PARAMETER_ENTRIES for d in np.shape(value)):
                 return f"{group}:{name} holds {' x '.join(str(d) for d in np.shape(value))} values"
     return None
-
-
-def _values_end(data, at: int) -> int:
-    """Where the values of the parameter whose offset-to-next word is at ``at`` end (its description follows)."""
-    typ, ndim = struct.unpack_from("b", data, at + 2)[0], data[at + 3]
-    count = int(np.prod(list(data[at + 4:at + 4 + ndim]))) if ndim else 1
-    return at + 4 + ndim + abs(typ) * count
-
-
-def _record_end(data, at: int) -> int:
-    """Where the values and description of the parameter whose offset-to-next word is at ``at`` end."""
-    p = _values_end(data, at)
-    return p + 1 + data[p]
-
-
-def put_texts(data: bytearray, group: str, name: str, values: list[str]) -> bytearray:
-    """``data`` (a C3D ezc3d wrote) with the text parameter GROUP:NAME stating ``values`` (up to 255), its
-    description and lock kept; ``data`` as it is where it has no such parameter.
-
-    The record is written anew at its place in the parameter section (a 2-D
-    text array, as wide as the longest text, at least 1), the records after it
-    moved with it: into the zero bytes before the data block where they
-    fit, else the data block moves on by whole blocks (header word 9,
-    POINT:DATA_START and the section's block count say where). For the
-    first 255 of more per-point texts, which ezc3d writes blank
-    (:func:`text_chunks`).
-    """
-    groups: dict[int, str] = {}
-    found, last = [], None
-    for gid, label, start, at, nxt in _records(data):
-        if gid < 0:
-            groups[-gid] = label
-        elif label == name.upper():
-            found.append((gid, start, at, nxt))
-        last = (gid, at)
-    hit = next((f for f in found if groups.get(f[0]) == group.upper()), None)
-    if hit is None or last is None:
-        return data
-    _, start, at, nxt = hit
-    p = _values_end(data, at)  # the description's length byte, then its text
-    description = bytes(data[p:p + 1 + data[p]])
-    old_end = at + nxt if nxt > 0 else _record_end(data, at)
-    texts = [str(v).encode("latin-1", "replace") for v in values]
-    width = max([1] + [len(t) for t in texts])
-    body = struct.pack("bBBB", -1, 2, width, len(texts)) + b"".join(t.ljust(width) for t in texts) + description
-    record = bytes(data[start:at]) + struct.pack("<h", 2 + len(body) if nxt > 0 else 0) + body
-    delta = len(record) - (old_end - start)
-    section_end = _record_end(data, last[1]) if last[1] != at else old_end
-    data_start, = struct.unpack_from("<H", data, 16)
-    here = (data_start - 1) * BLOCK  # the data block, before the change
-    extra = max(0, -(-(delta - (here - section_end)) // BLOCK))  # blocks the section grows by
-    out = data[:start] + record + data[old_end:]
-    want, now = here + extra * BLOCK, here + delta
-    out = out[:min(want, now)] + bytes(max(0, want - now)) + out[now:]
-    if extra:
-        struct.pack_into("<H", out, 16, data_start + extra)
-        put_parameter(out, "POINT", "DATA_START", [data_start + extra])
-        out[(out[0] - 1) * BLOCK + 2] += extra
-    return out
 
 
 def put_parameter(data: bytearray, group: str, name: str, values) -> bool:
