@@ -191,3 +191,33 @@ def test_a_part_of_a_qualisys_take_keeps_every_parameter_but_its_length(shared_d
     path = shared_data / "c3d_markers_recovery" / "03_rolling.c3d"
     out = save_markers(load_markers(path)[:50], tmp_path / "part.c3d")
     assert _parameter_changes(path, out) == ["POINT:FRAMES value", "POINT:LONG_FRAMES value"]
+
+
+def test_spare_entries_that_outgrow_ezc3ds_section_move_the_data_block_and_read_back(tmp_path):
+    """The section keep_parameters writes is longer than ezc3d's where the file states more past USED than fits
+    the room before the data block (here 229 spare labels of 40 characters, 9 KB): the data block moves on by
+    whole blocks, and ezc3d, the c3d package and read_c3d all read the labels and the same data."""
+    import dataclasses
+
+    import c3d
+    import ezc3d
+
+    take = load_markers(EB015PR)
+    params = {g: dict(p) for g, p in take.source.parameters.items()}
+    spare = [f"SPARE{i:03d}".ljust(40, "x") for i in range(229)]
+    params["POINT"]["LABELS"] = dict(params["POINT"]["LABELS"], value=list(take.labels) + spare)
+    take = dataclasses.replace(take, source=dataclasses.replace(take.source, parameters=params))
+    pos = np.array(take.positions)
+    pos[5, 1] += 1.0
+    out = save_markers(take.with_positions(pos), tmp_path / "spare.c3d")
+    raw = out.read_bytes()
+    data_start = struct.unpack_from("<H", raw, 16)[0]
+    assert data_start > 11  # Eb015pr.c3d's block: the section outgrew it
+    read = ezc3d.c3d(str(out))
+    assert read["parameters"]["POINT"]["LABELS"]["value"] == list(take.labels) + spare
+    assert read["parameters"]["POINT"]["DATA_START"]["value"][0] == data_start
+    with open(out, "rb") as fh:
+        assert len(c3d.Reader(fh).get("POINT:LABELS").string_array) == 255
+    back = load_markers(out)
+    assert np.array_equal(back.positions, pos, equal_nan=True) and np.array_equal(back.source.analogs,
+                                                                                  take.source.analogs)
