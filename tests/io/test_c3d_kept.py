@@ -221,3 +221,29 @@ def test_spare_entries_that_outgrow_ezc3ds_section_move_the_data_block_and_read_
     back = load_markers(out)
     assert np.array_equal(back.positions, pos, equal_nan=True) and np.array_equal(back.source.analogs,
                                                                                   take.source.analogs)
+
+
+def test_texts_come_back_as_the_bytes_the_file_held():
+    """A parameter text is written as ezc3d reads it back: UTF-8 (ezc3d's own writing), and a byte of another
+    encoding (a Latin-1 file's 0xE9, read by ezc3d as '\\udce9') as that byte, not as a replacement."""
+    from mocapkit.io.c3d_section import parameter_record
+
+    body = parameter_record({"type": -1, "description": "caf\u00e9", "value": ["Ren\udce9", "Ren\u00e9"]})
+    assert body == b"\xff\x02\x05\x02" + b"Ren\xe9 Ren\xc3\xa9" + b"\x05caf\xc3\xa9"
+
+
+def test_a_latin_1_text_is_written_back_as_its_byte(tmp_path):
+    """ezc3d reads a text byte that is no UTF-8 (a Latin-1 file's 'René': 0xE9) as '\\udce9' and refuses to write
+    it back ('could not be converted to string'): such a take could not be written at all. Now it is, the byte
+    as the file held it."""
+    import dataclasses
+
+    import ezc3d
+
+    take = load_markers(EB015PR)
+    params = {g: dict(p) for g, p in take.source.parameters.items()}
+    params["SUBJECT"] = dict(params["SUBJECT"], NAME=dict(params["SUBJECT"]["NAME"], value=["Ren\udce9"]))
+    take = dataclasses.replace(take, source=dataclasses.replace(take.source, parameters=params))
+    out = save_markers(take, tmp_path / "latin.c3d")
+    assert b"\x04Ren\xe9" in out.read_bytes()  # its length, then its 4 bytes
+    assert ezc3d.c3d(str(out))["parameters"]["SUBJECT"]["NAME"]["value"] == ["Ren\udce9"]

@@ -643,14 +643,31 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     c["data"]["points"] = pts
     c["data"]["meta_points"] = {"residuals": markers.residual_or_default().T[None].astype(np.float64)}
     c["data"]["analogs"] = data_analogs
+    wanted = _wanted(c["parameters"], full)
     for group in c["parameters"]:
         for key, param in c["parameters"][group].items():
-            value = param.get("value") if isinstance(param, dict) and param.get("type") == -1 else None
+            if not isinstance(param, dict):
+                continue
+            # a text ezc3d cannot write (a Latin-1 byte it read as '\udce9'), handed to it in a form it can:
+            # keep_parameters writes the file's bytes (before 0.18.0 such a file could not be written)
+            param = {k: _writable(v) for k, v in param.items()}
+            value = param.get("value") if param.get("type") == -1 else None
             if isinstance(value, list) and value and all(isinstance(v, str) and not v.strip() for v in value):
                 # ezc3d writes a list of empty texts with no columns, which reads back as no text at all ([''] ->
                 # []); a space each keeps its entries, read back as the empty texts they were
-                c["parameters"][group][key] = dict(param, value=[" "] * len(value))
-    return c, None if analogs is None else stored, _wanted(c["parameters"], full)
+                param = dict(param, value=[" "] * len(value))
+            c["parameters"][group][key] = param
+    return c, None if analogs is None else stored, wanted
+
+
+def _writable(value):
+    """``value`` (a parameter's field) with each text UTF-8 can encode as it is, another (holding a surrogate: a
+    byte ezc3d read that is no UTF-8) with that byte replaced, as ezc3d's writer takes only those."""
+    if isinstance(value, str):
+        return value.encode("utf-8", "surrogateescape").decode("utf-8", "replace")
+    if isinstance(value, list):
+        return [_writable(v) for v in value]
+    return value
 
 
 def _wanted(parameters: dict, full: dict) -> dict:

@@ -46,7 +46,12 @@ UPDATED = frozenset({("POINT", "USED"), ("POINT", "FRAMES"), ("POINT", "DATA_STA
 
 
 def _text(value) -> bytes:
-    return str(value).encode("latin-1", "replace")
+    """A text's bytes as ezc3d reads them back into the same text: UTF-8, a byte that is none read by ezc3d as a
+    lone surrogate (a Latin-1 file's 0xE9: '\\udce9') written back as that byte."""
+    try:
+        return str(value).encode("utf-8", "surrogateescape")
+    except UnicodeEncodeError:  # a surrogate no byte stands for
+        return str(value).encode("utf-8", "replace")
 
 
 def parameter_record(param: dict) -> bytes:
