@@ -182,3 +182,34 @@ def test_a_props_hidden_markers_take_no_donor_from_the_body(cmu, shared_data):
     for r in records:
         assert all(d >= body for d in r.donors)
         assert "rigid donors" in r.note and "over the take by more than 150 mm" in r.note
+
+
+def test_cleaning_and_filling_run_blas_on_one_thread(monkeypatch):
+    # The low-rank fills' SVDs ran on OpenBLAS's threads: on two busy cores 03_rolling.c3d's 760 took 53 s of a 76 s
+    # clean, 2 s on one thread, to the same bits. clean_markers and fill_gaps hold BLAS at one thread whatever the
+    # caller set (two here, as a 2-core machine has by default).
+    from threadpoolctl import threadpool_info, threadpool_limits
+
+    from mocapkit.cleaning.markers import clean, clean_markers, gaps
+    from mocapkit.markerset import MarkerSet
+
+    if not any(i["user_api"] == "blas" for i in threadpool_info()):
+        pytest.skip("no BLAS library threadpoolctl can see")
+    seen = []
+
+    def spy(real):
+        def call(*args, **kwargs):
+            seen.append(real.__name__)
+            assert {i["num_threads"] for i in threadpool_info() if i["user_api"] == "blas"} == {1}, real.__name__
+            return real(*args, **kwargs)
+        return call
+
+    monkeypatch.setattr(clean, "distance_stats", spy(clean.distance_stats))  # the pipeline's steps
+    monkeypatch.setattr(gaps, "donor_order", spy(gaps.donor_order))  # inside the gap filler
+    take = read_c3d(CMU)[:300]
+    y = np.asarray(take.positions, dtype=np.float64).copy()
+    y[100:130, 5] = np.nan
+    with threadpool_limits(2, user_api="blas"):
+        fill_gaps(y, constrain=False)
+        clean_markers(MarkerSet(labels=take.labels, positions=y, fps=take.fps, units=take.units), steps="gaps")
+    assert seen == ["donor_order", "distance_stats", "donor_order"]

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from ...markerset import check_units, subject_of
 from ...words import frame_span, plural
@@ -561,7 +562,21 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     Returns
     -------
     MarkerCleanResult
+
+    BLAS runs on one thread throughout: the gaps' low-rank fills
+    (:mod:`~mocapkit.cleaning.markers.lowrank`) take hundreds of SVDs of
+    (window, 39) matrices, which OpenBLAS's threads made many times slower on
+    a busy machine (03_rolling.c3d's 760: 53 s of a 76 s clean on two shared
+    cores, 2 s on one thread), and one thread gives the same sums whatever
+    the machine's cores (the output is bit for bit that of two threads on
+    every capture of the recovery, c3d.org, BTKData and TRC test data).
     """
+    with threadpool_limits(1, user_api="blas"):
+        return _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm)
+
+
+def _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm) -> MarkerCleanResult:
+    """:func:`clean_markers`' work, on one BLAS thread."""
     if isinstance(steps, str):
         steps = [s.strip() for s in steps.split(",") if s.strip()]
     unknown = [s for s in steps if s not in STEPS]

@@ -67,6 +67,7 @@ from dataclasses import dataclass, replace
 from itertools import combinations
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from .constraints import enforce_distances
 from .lowrank import fill_lowrank
@@ -522,7 +523,18 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     fills : list of GapFill
         One record per filled gap, and one per gap left missing for want of
         a plausible fill (``implausible`` says why; ``filled`` is False).
+
+    BLAS runs on one thread (as in :func:`~mocapkit.cleaning.markers.clean.clean_markers`):
+    the low-rank fills' SVDs run many times faster so on a busy machine, to the same bits.
     """
+    with threadpool_limits(1, user_api="blas"):
+        return _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth,
+                          subjects, markers, max_error, first_frame)
+
+
+def _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth, subjects,
+               markers, max_error, first_frame) -> tuple[np.ndarray, list[GapFill]]:
+    """:func:`fill_gaps`' work, on one BLAS thread."""
     pos = np.array(positions, dtype=np.float64)
     f, m_count = pos.shape[:2]
     missing = np.any(np.isnan(pos), axis=-1)
