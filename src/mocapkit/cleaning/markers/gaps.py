@@ -206,7 +206,8 @@ def donors_allowed(stats: DistanceStats, m: int, unit_mm: float = 1.0) -> np.nda
     return out
 
 
-def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0) -> np.ndarray | None:
+def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = False, side: int = 0,
+                frames: dict | None = None) -> np.ndarray | None:
     """Fill frames a..b-1 of marker m by interpolation in the donors' moving frame.
 
     The marker's coordinates in the frame of ``donors`` at the last seen
@@ -220,6 +221,12 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
     is seen at neither end, or the donors' shape is degenerate (collinear).
     ``side`` -1 (+1) uses only the end before (after) the gap, as a gap
     touching the take's last (first) frame must.
+
+    ``frames``: a dict shared by the models of one gap (:func:`_fills`), which keeps each donor group's
+    moving frames over the gap and its ends: the cubic fill in a group's frame needs those the linear fill
+    of that group computed, and only its two outer frames more. Every frame's Kabsch fit is its own, so the
+    frames are bit for bit those of one call over all of them (03_rolling.c3d: 67,000 of the 280,000 donor
+    frames were such repeats).
     """
     f = pos.shape[0]
     n = b - a
@@ -229,28 +236,45 @@ def _donor_fill(pos: np.ndarray, m: int, a: int, b: int, donors, cubic: bool = F
     outer = [a - 2, b + 1]
     if cubic and (len(ends) < 2 or outer[0] < 0 or outer[1] >= f or np.any(np.isnan(pos[outer, m]))):
         return None
-    frames = np.concatenate([np.arange(a, b), ends, outer if cubic else []]).astype(int)
+    frames_at = np.concatenate([np.arange(a, b), ends, outer if cubic else []]).astype(int)
     donors = list(donors)
     if len(donors) == 1:  # pattern fill: the offset from one donor, interpolated
-        d = pos[frames, donors[0]]
+        d = pos[frames_at, donors[0]]
         if np.any(np.isnan(d)):
             return None
-        est = _interpolate(pos[frames[n:], m] - d[n:], n, len(ends), cubic)
+        est = _interpolate(pos[frames_at[n:], m] - d[n:], n, len(ends), cubic)
         return est + d[:n]
     if donors:
-        d = pos[frames][:, donors]
+        d = pos[frames_at][:, donors]
         if np.any(np.isnan(d)):
             return None
         ref = d[n]
         sv = np.linalg.svd(ref - ref.mean(axis=0), compute_uv=False)
         if sv[1] <= 1e-3 * sv[0]:
             return None
-        rot, origin = local_frames(d, ref)
-        loc = to_local(pos[frames[n:], m], rot[n:], origin[n:])
+        rot, origin = _group_frames(d, ref, n + len(ends), None if frames is None else (tuple(donors), a, b, side),
+                                    frames)
+        loc = to_local(pos[frames_at[n:], m], rot[n:], origin[n:])
     else:
-        loc = pos[frames[n:], m]
+        loc = pos[frames_at[n:], m]
     est = _interpolate(loc, n, len(ends), cubic)
     return from_local(est, rot[:n], origin[:n]) if donors else est
+
+
+def _group_frames(d: np.ndarray, ref: np.ndarray, k: int, key, frames: dict | None):
+    """:func:`~mocapkit.cleaning.markers.rigid.local_frames` of donors ``d`` (T, K, 3) on ``ref``, its first ``k``
+    frames (the gap's and its ends') kept in ``frames`` under ``key`` and taken from there when kept already."""
+    if frames is None:
+        return local_frames(d, ref)
+    if key in frames:
+        rot, origin = frames[key]
+        if len(rot) == len(d):
+            return rot, origin
+        more_rot, more_origin = local_frames(d[k:], ref)
+        return np.concatenate([rot, more_rot]), np.concatenate([origin, more_origin])
+    rot, origin = local_frames(d, ref)
+    frames[key] = (rot[:k], origin[:k])
+    return rot, origin
 
 
 def _interpolate(loc: np.ndarray, n: int, ends: int, cubic: bool) -> np.ndarray:
@@ -386,6 +410,7 @@ def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, s
     """
     out: list[np.ndarray | None] = []
     regressed: dict = {}
+    frames: dict = {}  # each donor group's moving frames over the gap and its ends (:func:`_donor_fill`)
     for g, kind, extra in models:
         if kind == "regress":
             key = (g, extra[0])
@@ -396,7 +421,7 @@ def _fills(pos: np.ndarray, m: int, a: int, b: int, models, order: np.ndarray, s
         elif kind == "lowrank":
             out.append(_lowrank_fill(pos, m, a, b, order, stats))
         else:
-            out.append(_donor_fill(pos, m, a, b, g, kind == "cubic", side))
+            out.append(_donor_fill(pos, m, a, b, g, kind == "cubic", side, frames))
     return out
 
 
@@ -618,13 +643,14 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
         return False
     near = [int(d) for d in order[m][:4]]
     seen_m = ~np.any(np.isnan(pos[:, m]), axis=-1)
+    apart = {d: np.linalg.norm(pos[:, m] - pos[:, d], axis=-1) for d in near}  # per frame: the spans' subsets
     err = np.zeros(2)
     for s, e, est in checks:
         low, high = stats.low.copy(), stats.high.copy()
         keep = seen_m.copy()
         keep[s:e] = False
         for d in near:
-            dist = np.linalg.norm(pos[keep, m] - pos[keep, d], axis=-1)
+            dist = apart[d][keep]
             dist = dist[~np.isnan(dist)]
             if dist.size >= 10:
                 low[m, d], high[m, d] = np.percentile(dist, [1, 99])
