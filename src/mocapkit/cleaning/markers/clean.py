@@ -572,10 +572,11 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
     every capture of the recovery, c3d.org, BTKData and TRC test data).
     """
     with threadpool_limits(1, user_api="blas"):
-        return _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm)
+        return _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm, progress)
 
 
-def _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm) -> MarkerCleanResult:
+def _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_error_mm,
+                   progress) -> MarkerCleanResult:
     """:func:`clean_markers`' work, on one BLAS thread."""
     if isinstance(steps, str):
         steps = [s.strip() for s in steps.split(",") if s.strip()]

@@ -554,11 +554,11 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     """
     with threadpool_limits(1, user_api="blas"):
         return _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth,
-                          subjects, markers, max_error, first_frame)
+                          subjects, markers, max_error, first_frame, progress)
 
 
 def _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth, subjects,
-               markers, max_error, first_frame) -> tuple[np.ndarray, list[GapFill]]:
+               markers, max_error, first_frame, progress) -> tuple[np.ndarray, list[GapFill]]:
     """:func:`fill_gaps`' work, on one BLAS thread."""
     pos = np.array(positions, dtype=np.float64)
     f, m_count = pos.shape[:2]
