@@ -164,3 +164,29 @@ def test_a_comment_first_line_after_a_byte_order_mark_is_counted(cmu, tmp_path):
         f"{tmp_path / 'half.bvh'}: not written: 5 comment lines of {path} (a .bvh keeps them only when written like "
         "its source, at its frames, rate and skeleton)"]
     assert motion_notes(read_bvh(path), tmp_path / "out.npz") == []  # the .npz keeps all 5, the first one too
+
+
+@pytest.mark.parametrize("offsets", [False, True])
+def test_blank_lines_after_the_last_frame_and_between_frames_are_kept(cmu, tmp_path, offsets):
+    """A user trial: `(cat take.bvh; echo; echo) > t.bvh; mocapkit clean t.bvh -o out.bvh` said 100 % untouched and
+    wrote 2 bytes fewer: the empty lines after the last frame were dropped. An unchanged take is the file byte for
+    byte, and a changed one (its numbers, or its offsets: the hierarchy written anew) keeps them where they were."""
+    head, body, frame_time = take_lines(cmu, 12)
+    path = tmp_path / "blanks.bvh"
+    path.write_bytes("".join(head + ["MOTION\n", f"Frames: {len(body)}\n", frame_time] + body[:4] + ["\n"] + body[4:]
+                             + ["\n", "  \r\n", "# end\n", "\n"]).encode())
+    m = read_bvh(path)
+    mocapkit.save(m, tmp_path / "out.bvh")
+    assert (tmp_path / "out.bvh").read_bytes() == path.read_bytes()
+    assert motion_notes(m, tmp_path / "out.bvh") == []
+    rot = np.array(m.rotations)
+    rot[6, 3] = [np.cos(0.2), np.sin(0.2), 0.0, 0.0]
+    changed = dataclasses.replace(m, rotations=rot)
+    if offsets:
+        sk = m.skeleton
+        changed = dataclasses.replace(changed, skeleton=dataclasses.replace(sk, offsets=sk.offsets * 1.01))
+    mocapkit.save(changed, tmp_path / "changed.bvh")
+    text = (tmp_path / "changed.bvh").read_bytes().decode()
+    assert text.endswith("\n\n  \r\n# end\n\n")
+    motion = text.split("Frame Time:")[1].splitlines()[1:]
+    assert motion[4] == "" and len(motion) == 12 + 5 and motion[7] != body[6].rstrip("\r\n")

@@ -38,7 +38,7 @@ from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exact_number, fps_from_frame_time,
                             hierarchy_text, shortest, with_frame_count)
-from .bvh_comments import anchored, comment_lines, keyword_count, motion_comments, with_comments
+from .bvh_comments import anchored, comment_count, comment_lines, keyword_count, motion_comments, with_comments
 from .bvh_roots import COMMENT, Layout, around_take, is_comment, layout
 from .euler_branches import NEAR_SOURCE_DEG, continuous_rotations, measured_text
 from .kept_channels import kept_comments, kept_header, kept_text, kept_values
@@ -727,7 +727,8 @@ def source_kept(motion: Motion, like) -> tuple[np.ndarray | None, tuple[tuple[st
     if not source.whole:  # a part of the file's frames: its numbers; the file's text is kept for the whole take only
         return source.values, channels, None, None, None
     header = None if source.header is None or source.layout.extras else "".join(source.header)
-    return source.values, channels, header, source.between, source.text
+    comments = [[t for t in lines if t.strip()] for lines in source.between]  # what an .npz keeps: comments alone
+    return source.values, channels, header, comments, source.text
 
 
 def _source_numbers(like, motion: Motion, order: list[int]) -> "_LikeSource | _Kept | None":
@@ -770,7 +771,7 @@ class _LikeSource:
     values: np.ndarray  # (F, C) float: the file's numbers (its own 360-degree and Euler branches; NaN for "nan")
     layout: Layout  # the take's columns of each line and the other roots, kept as the file's text
     around: tuple[list[str], list[str]] | None  # header lines before the take's ROOT and after it (around_take)
-    between: list[list[str]]  # the comment lines before each data line, and after the last (bvh_comments)
+    between: list[list[str]]  # the comment and blank lines before each data line, and after the last (bvh_comments)
     inside: list[tuple[int, str]]  # the comments inside the take's ROOT block, anchored (bvh_comments.anchored)
     keywords: int  # the hierarchy keywords of the take's ROOT block as the file writes it
     text: bytes  # the file's bytes as read, which an .npz made from the take keeps (kept_channels.TEXT_KEYS)
@@ -807,15 +808,15 @@ def _like_source(like, motion: Motion, order: list[int]) -> _LikeSource | None:
     at = next((i for i, t in enumerate(lines) if _FRAME_TIME_RE.match(t)), None)  # as the reader finds it
     if at is None:
         return None
-    data, between = motion_comments(lines[at + 1:])
+    data, between = motion_comments(lines[at + 1:], blanks=True)  # blank lines kept: an unchanged take is the file
     if len(data) != ref.num_frames:
         return None
-    whole, left_out = len(part) == ref.num_frames, sum(map(len, between))
+    whole, left_out = len(part) == ref.num_frames, comment_count(between)
     if not whole:  # a slice: its frames' lines and the comments before each (those after the last at the file's end)
         cut = slice(part.start, part.stop)
         data, between = data[cut], between[cut] + [between[-1] if part.stop == ref.num_frames else []]
         ref, table, lines = ref[cut], table[cut], with_frame_count(lines, at, motion.num_frames)
-    left_out -= sum(map(len, between))  # the motion section's comments among other frames: not written
+    left_out -= comment_count(between)  # the motion section's comments among other frames: not written
     turned = _differs(motion.rotations, ref.rotations)
     moved = _differs(motion.local_offsets(), ref.local_offsets())
     same_header = (ref.fps == motion.fps and np.array_equal(rsk.offsets, sk.offsets)

@@ -15,22 +15,25 @@ from __future__ import annotations
 from .bvh_roots import is_comment
 from .sources import bom_length
 
-__all__ = ["KEYWORDS", "motion_comments", "anchored", "keyword_count", "with_comments", "comment_lines"]
+__all__ = ["KEYWORDS", "motion_comments", "comment_count", "anchored", "keyword_count", "with_comments", "comment_lines"]
 
 #: The tokens that open an element of a BVH hierarchy; :func:`mocapkit.io.bvh_hierarchy.hierarchy_text` starts a
 #: line with each.
 KEYWORDS = frozenset({"ROOT", "JOINT", "End", "{", "}", "OFFSET", "CHANNELS"})
 
 
-def motion_comments(lines: list[str]) -> tuple[list[str], list[list[str]]]:
+def motion_comments(lines: list[str], blanks: bool = False) -> tuple[list[str], list[list[str]]]:
     """The motion lines after ``Frame Time:`` (``lines``, line endings kept) split into the frame lines and the
     comment lines before each: ``(frames, before)``, ``before`` one list per frame plus one for the comments after
-    the last frame. Blank lines are left out, as the reader leaves them."""
+    the last frame. Blank lines are left out, as the reader leaves them; with ``blanks`` they are kept in ``before``
+    where they stand (a file's empty lines after its last frame, written back by a BVH written like it)."""
     frames: list[str] = []
     before: list[list[str]] = []
     pending: list[str] = []
     for t in lines:
         if not t.strip():
+            if blanks:
+                pending.append(t)
             continue
         if is_comment(t):
             pending.append(t)
@@ -40,6 +43,11 @@ def motion_comments(lines: list[str]) -> tuple[list[str], list[list[str]]]:
         frames.append(t)
     before.append(pending)
     return frames, before
+
+
+def comment_count(before: list[list[str]]) -> int:
+    """How many comment lines the lists ``before`` (:func:`motion_comments`) hold, blank lines left out."""
+    return sum(1 for lines in before for t in lines if t.strip())
 
 
 def _keywords(line: str) -> int:
