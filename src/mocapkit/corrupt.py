@@ -60,6 +60,7 @@ __all__ = [
     "channel_spread",
     "ErrorRecord",
     "describe_error",
+    "describe_errors",
     "KINDS",
     "ERROR_KINDS",
 ]
@@ -593,6 +594,27 @@ def describe_error(record, original: Motion, corrupted: Motion) -> str:
     if ok.any():
         line += f", turned by up to {np.degrees(R.geodesic_angle(a[ok], b[ok])).max():.1f} deg"
     return line
+
+
+def describe_errors(records, original: Motion, corrupted: Motion) -> list[str]:
+    """One line per injected error (:func:`describe_error`), in the records' order.
+
+    A swap is one error kept as two records, one per joint of the pair, each
+    naming the other (what a mask and ``clean --reference`` score per joint);
+    it reads as one line, its first record's (``swap: UpperLeg_L with
+    UpperLeg_R``), so the lines count the errors injected.
+    """
+    lines, paired = [], set()
+    for record in records:
+        r = record if isinstance(record, dict) else dataclasses.asdict(record)
+        key = (r["kind"], r["joint"], r.get("partner"), int(r["start"]), int(r["end"]))
+        if r.get("partner") and key in paired:
+            paired.discard(key)
+            continue
+        if r.get("partner"):
+            paired.add((r["kind"], r["partner"], r["joint"], int(r["start"]), int(r["end"])))
+        lines.append(describe_error(r, original, corrupted))
+    return lines
 
 
 def _error_setup(motion: Motion, joints, duration_s, seed):

@@ -605,6 +605,24 @@ def test_corrupt_prints_each_injected_error_as_a_plain_line(tmp_path):
                             r"\(\d+ frames?, \d+\.\d\d s\), turned by up to \d+\.\d deg", line), line
 
 
+def test_corrupt_lists_a_swap_once(tmp_path):
+    """A user trial: `corrupt --kind errors` listed each swap twice (`swap: UpperLeg_L with UpperLeg_R` and `swap:
+    UpperLeg_R with UpperLeg_L`), so four injected errors read as five. One line per injected error; the mask keeps
+    a record per joint of the pair (what `clean --reference` scores per joint)."""
+    import json
+
+    out = tmp_path / "bad.bvh"
+    code, said, err = run("corrupt", SAMPLE, out, "--kind", "errors", "--seed", "4")
+    assert code == 0, err
+    lines = said.splitlines()[1:]
+    with np.load(tmp_path / "bad.mask.npz") as kept:
+        records = json.loads(str(kept["errors"]))
+    swaps = [r for r in records if r["kind"] == "swap"]
+    assert len(swaps) == 2 and {swaps[0]["joint"], swaps[1]["joint"]} == {"LeftKnee", "RightKnee"}
+    assert len(lines) == len(records) - 1 == 4, said
+    assert [ln.split(",")[0] for ln in lines if "swap" in ln] == ["  swap: LeftKnee with RightKnee"], said
+
+
 def test_info_and_clean_say_how_many_samples_stored_as_zeros_were_read_as_gaps(tmp_path):
     """Trial: `convert` said that 35,965 of Qualisys 03_rolling.c3d's samples, stored as exact (0, 0, 0), were read
     as gaps, but `info` (22.95 % missing) and `clean` (194 gaps filled) did not, so the user of either never

@@ -245,8 +245,8 @@ def corrupt(
     frames = int(mask.any(axis=1).sum())
     console.print(f"wrote {out} and {mask_path}: {plural(int(mask.sum()), 'joint sample')} changed in "
                   f"{frames} of {plural(m.num_frames, 'frame')}")
-    for r in records:
-        console.print(f"  {corrupt_mod.describe_error(r, m, bad)}")
+    for line in corrupt_mod.describe_errors(records, m, bad):  # a swap's two records (one per joint): one line
+        console.print(f"  {line}")
 
 
 #: corrupt's refusal of a skeleton take written to a marker format (said before the output guard when IN's suffix
