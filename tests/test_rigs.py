@@ -355,3 +355,57 @@ def test_rig_family_is_kept_per_skeleton_by_names_and_parents_in_a_bounded_cache
     flat = Skeleton(sk.joint_names, np.r_[-1, np.zeros(sk.num_joints - 1, dtype=np.int64)], sk.offsets)
     assert rigs.rig_family(flat) is None and info().misses == 2  # a wrong tree is not the family
     assert info().maxsize == 64
+
+
+# namespaces exporters write before every joint name: Maya HumanIK's default character, MotionBuilder and Maya
+# namespaces, a Maya DAG path, an FBX namespace, two at once
+NAMESPACES = ("Character1_", "Character1:", "rig|", "ns:", "mixamorig:", "ns:Character1_")
+
+
+def _named(sk: Skeleton, names) -> Skeleton:
+    return Skeleton(tuple(names), np.array(sk.parents), np.array(sk.offsets))
+
+
+@pytest.mark.parametrize("prefix", NAMESPACES)
+def test_a_namespace_before_every_joint_name_is_set_aside_for_the_family(prefix):
+    """A user trial: `Character1_Hips`, `rig|Hips`, `ns:Hips` and a Bandai Namco rig exported as
+    `mixamorig:UpperLeg_L` were of "none known" family, while the bare names are humanik / bandai_namco; with the
+    family went the shipped model and its licence line. The prefix is set aside for the matching alone: the same
+    family, roles, pelvis, sides, mirror partners and data terms, the file's names kept."""
+    from mocapkit.motion import joint_sides, mirror_pairs
+
+    data = Path(__file__).parent / "data"
+    for sk, family in ((mocapkit.load(data / "dataset-1_dash_normal_001.bvh").skeleton, "bandai_namco"),
+                       (mocapkit.load(samples.path("131_01.bvh")).skeleton, "cmu_bvh_3dsmax"),
+                       (read_asf(samples.path("HDM_bk.asf")), "acclaim")):
+        ns = _named(sk, [prefix + n for n in sk.joint_names])
+        assert (rigs.rig_family(ns), rigs.family_prefix(ns), rigs.family_prefix(sk)) == (family, prefix, "")
+        assert rigs.family_names(ns) == tuple(sk.joint_names) and ns.joint_names[0].startswith(prefix)
+        assert rigs.roles(ns) == rigs.roles(sk) and rigs.pelvis_index(ns) == rigs.pelvis_index(sk)
+        np.testing.assert_array_equal(mirror_pairs(ns.joint_names), mirror_pairs(sk.joint_names))
+        assert joint_sides(ns.joint_names) == joint_sides(sk.joint_names)
+        assert rigs.data_terms([ns]) == rigs.data_terms([sk])
+    # an extra root the exporter left out of the namespace (one name in ten may lack it)
+    sk = mocapkit.load(data / "dataset-1_dash_normal_001.bvh").skeleton
+    ns = _named(sk, ["Reference"] + [prefix + n for n in sk.joint_names[1:]])
+    assert rigs.rig_family(ns) == "bandai_namco" and rigs.family_prefix(ns) == prefix
+
+
+def test_names_that_match_as_written_or_not_at_all_keep_their_prefix():
+    """Only a prefix (nearly) every name shares is set aside, and only where the names as written match no family:
+    Mixamo's own `mixamorig:` stays mixamo, Bandai's `_L` suffixes and SMPL's `m_avg_` are read as written, and a
+    rig whose names share a prefix but match no family without it is still of none known."""
+    sk = mocapkit.load(samples.path("131_01.bvh")).skeleton
+    humanik = {j: rigs.FAMILIES["humanik"][role][0] for role, j in rigs.roles(sk).items() if role in rigs.FAMILIES["humanik"]}
+    names = [humanik.get(j, n) for j, n in enumerate(sk.joint_names)]  # 131_01 with HumanIK's names for its roles
+    assert rigs.rig_family(_named(sk, names)) == "humanik"
+    mixamo = _named(sk, ["mixamorig:" + n for n in names])
+    assert (rigs.rig_family(mixamo), rigs.family_prefix(mixamo)) == ("mixamo", "")
+    hik = _named(sk, ["Character1_" + n for n in names])
+    assert (rigs.rig_family(hik), rigs.family_prefix(hik)) == ("humanik", "Character1_")
+    bandai = mocapkit.load(Path(__file__).parent / "data" / "dataset-1_dash_normal_001.bvh").skeleton
+    assert rigs.family_prefix(bandai) == "" and rigs.family_names(bandai) == tuple(bandai.joint_names)
+    odd = _named(sk, ["Rig_" + n.upper() for n in sk.joint_names])  # LEFTHIP ...: no family, prefix or not
+    assert rigs.rig_family(odd) is None and rigs.family_prefix(odd) == "" and rigs.family_names(odd) == odd.joint_names
+    half = _named(sk, [("Character1_" if j % 4 else "") + n for j, n in enumerate(sk.joint_names)])
+    assert rigs.rig_family(half) is None  # a quarter of the names without it: not a namespace

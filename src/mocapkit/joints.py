@@ -23,6 +23,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "some_names",
+    "name_readings",
     "mirror_pairs",
     "mirror_mismatch",
     "MIRROR_MISMATCH_MAX",
@@ -56,6 +57,54 @@ _SIDE_SWAPS = [
 ]
 
 
+#: What ends a namespace or a path before a joint's own name: ``Character1:Hips``, ``rig|Hips``, ``Character1_Hips``
+_SEPARATORS = (":", "|", "_")
+
+
+def _head(name: str) -> str:
+    """``name`` up to and including its first separator (:data:`_SEPARATORS`), "" where it has none or nothing
+    follows it."""
+    at = min((i for i in (name.find(c) for c in _SEPARATORS) if i > 0), default=-1)
+    return name[: at + 1] if 0 < at < len(name) - 1 else ""
+
+
+def _shared_head(names: tuple[str, ...]) -> str:
+    """The head (:func:`_head`) that every name shares but at most one in ten (an extra ``Reference`` root, a prop
+    joint the exporter did not put in the namespace), "" where none does."""
+    heads: dict[str, int] = {}
+    for n in names:
+        h = _head(n)
+        if h:
+            heads[h] = heads.get(h, 0) + 1
+    if not heads:
+        return ""
+    head, count = max(heads.items(), key=lambda kv: kv[1])
+    return head if count >= 2 and count >= len(names) - len(names) // 10 else ""
+
+
+def name_readings(joint_names: Sequence[str]):
+    """``(prefix, names)``, the joint names as a namespace exporters write before every one may hide them, in order:
+    as written (prefix ""), then with each shared head (:func:`_shared_head`) set aside in turn
+    (``ns:Character1_Hips`` -> ``Character1_Hips`` -> ``Hips``), while the names stay distinct; at most three
+    heads. :func:`mocapkit.rigs.rig_family` matches families on the first that one fits; :func:`mirror_pairs`
+    pairs by the last the names a namespace leaves unpaired (``Character1_lhand``).
+
+    >>> [p for p, _ in name_readings(["ns:Character1_Hips", "ns:Character1_Spine", "ns:Character1_Head"])]
+    ['', 'ns:', 'ns:Character1_']
+    """
+    prefix, names = "", tuple(joint_names)
+    yield prefix, names
+    for _ in range(3):
+        head = _shared_head(names)
+        if not head:
+            return
+        names = tuple(n[len(head):] if n.startswith(head) else n for n in names)
+        if len(set(names)) != len(names):
+            return
+        prefix += head
+        yield prefix, names
+
+
 def _partner_name(name: str, names: set[str]) -> str | None:
     for pat, rep in _SIDE_SWAPS:
         if pat.search(name):
@@ -78,6 +127,17 @@ def mirror_pairs(joint_names: Sequence[str]) -> np.ndarray:
     [0, 2, 1, 3]
     """
     names = list(joint_names)
+    perm = _pairs(names)
+    *_, (prefix, bare) = name_readings(names)
+    if prefix:  # a namespace (Character1_lhand): the names it leaves unpaired paired by the names without it
+        alone = perm == np.arange(len(names))
+        more = _pairs(list(bare))
+        perm = np.where(alone & alone[more], more, perm)
+    return perm
+
+
+def _pairs(names: list[str]) -> np.ndarray:
+    """:func:`mirror_pairs` of ``names`` as written."""
     pos = {n: i for i, n in enumerate(names)}
     known = set(names)
     perm = np.arange(len(names))
@@ -139,10 +199,11 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
     """('left'|'right'|None, body-part name lower-cased without its side marker or namespace).
 
     A namespace (``mixamorig:`` in ``mixamorig:LeftArm``, as FBX exports and
-    MotionBuilder write them) is dropped before the side and part are read.
+    MotionBuilder write them) or a path (``rig|`` in ``rig|LeftArm``, Maya's)
+    is dropped before the side and part are read.
     """
     partner = _partner_name(name, names)
-    low = name.lower().rsplit(":", 1)[-1]
+    low = re.split(r"[:|]", name.lower())[-1]
     if partner is None:  # the prefixes of the Bandai Namco rig (``joint_``), SMPL's models (``m_avg_``), VRoid's
         return None, re.sub(r"^(joint_|[mf]_avg_|j_bip_c_)", "", low)
     for pat, side in (
@@ -159,6 +220,10 @@ def _side_and_part(name: str, names: set[str]) -> tuple[str | None, str]:
 
 def joint_sides(joint_names: Sequence[str]) -> list[str | None]:
     """``'left'``, ``'right'`` or None for each joint name: the side of a joint with a mirror partner by name."""
+    *_, (prefix, bare) = name_readings(joint_names)
+    if prefix:  # a namespace (Character1_lhand, rig|LeftArm): sides read without it, of the joints mirror_pairs pairs
+        perm, names = mirror_pairs(joint_names), set(bare)
+        return [None if perm[j] == j else _side_and_part(n, names)[0] for j, n in enumerate(bare)]
     names = set(joint_names)
     return [_side_and_part(n, names)[0] for n in joint_names]
 

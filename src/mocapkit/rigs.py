@@ -40,6 +40,19 @@ and three the chest, the legs and the arms are twin chains, and left and
 right come from the names' side markers or from the way the toes point.
 :func:`roles` falls back to it.
 
+A **namespace** an exporter writes before every joint's own name
+(``Character1:Hips`` or ``ns:Hips``, Maya and MotionBuilder namespaces;
+``rig|Hips``, a Maya DAG path; ``Character1_Hips``, the names of HumanIK's
+default character; the Bandai Namco rig exported as ``mixamorig:UpperLeg_L``)
+is set aside for family matching where the names as written match no family
+(:func:`family_prefix`): the part up to a separator (``:``, ``|``, ``_``) that
+(nearly) every joint name shares, one part at a time, until a family matches.
+Names as written come first, so Mixamo's own ``mixamorig:LeftUpLeg`` stays
+``mixamo`` and a suffix such as Bandai's ``_L`` is never touched; names
+sharing a prefix that match no family with it set aside stay of none known.
+Only the matching reads the names without it: the take, its output, the
+decisions and the report keep the file's names.
+
 Pure functions of a :class:`~mocapkit.motion.Skeleton`; nothing here reads
 files or depends on frame data.
 """
@@ -51,6 +64,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from .joints import name_readings
 from .motion import Skeleton
 
 __all__ = [
@@ -58,6 +72,8 @@ __all__ = [
     "PARENT_ROLE",
     "FAMILIES",
     "rig_family",
+    "family_prefix",
+    "family_names",
     "roles",
     "roles_by_topology",
     "pelvis_index",
@@ -322,20 +338,49 @@ def rig_family(skeleton: Skeleton) -> str | None:
     >>> rig_family(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton)
     'cmu_bvh_3dsmax'
     """
+    return _reading(skeleton)[0]
+
+
+def family_prefix(skeleton: Skeleton) -> str:
+    """The namespace :func:`rig_family` set aside to match ``skeleton``'s family (``"Character1_"`` for
+    ``Character1_Hips`` ..., ``"mixamorig:"`` for a Bandai Namco rig exported as ``mixamorig:Hips``), "" where the
+    names as written match it or no family matches (module docstring).
+
+    >>> from mocapkit.motion import Skeleton
+    >>> sk = Skeleton(("rig|Hips", "rig|LeftUpLeg", "rig|LeftLeg", "rig|RightUpLeg", "rig|RightLeg", "rig|Spine",
+    ...                "rig|LeftArm", "rig|RightArm", "rig|Head"), [-1, 0, 1, 0, 3, 0, 5, 5, 5], np.zeros((9, 3)))
+    >>> rig_family(sk), family_prefix(sk)
+    ('humanik', 'rig|')
+    """
+    return _reading(skeleton)[1]
+
+
+def family_names(skeleton: Skeleton) -> tuple[str, ...]:
+    """``skeleton``'s joint names as its family is matched on them: the file's, with :func:`family_prefix` set
+    aside (a model trained on a family's names serves the same rig under a namespace:
+    :func:`mocapkit.cleaning.deep.served_by`)."""
+    return _reading(skeleton)[2]
+
+
+def _reading(skeleton: Skeleton) -> tuple[str | None, str, tuple[str, ...]]:
     return _family_of(tuple(skeleton.joint_names), tuple(np.asarray(skeleton.parents).tolist()))
 
 
 @functools.lru_cache(maxsize=64)
-def _family_of(joint_names: tuple[str, ...], parents: tuple[int, ...]) -> str | None:
-    """:func:`rig_family` of a skeleton by all it reads, its joint names and parents (hashable tuples), kept for the
-    64 skeletons asked last: a take's steps ask it of one skeleton dozens of times (every role a cue finds), each
-    a pass over every family's names."""
-    best, best_n = None, 0
-    for family in FAMILIES:
-        found = _resolve(joint_names, family)
-        if len(found) > best_n and _covers(parents, found):
-            best, best_n = family, len(found)
-    return best
+def _family_of(joint_names: tuple[str, ...], parents: tuple[int, ...]) -> tuple[str | None, str, tuple[str, ...]]:
+    """``(family, prefix, names)``: :func:`rig_family`, :func:`family_prefix` and :func:`family_names` of a skeleton
+    by all they read, its joint names and parents (hashable tuples), kept for the 64 skeletons asked last: a take's
+    steps ask it of one skeleton dozens of times (every role a cue finds), each a pass over every family's names.
+    The first reading of the names (:func:`mocapkit.joints.name_readings`) that some family covers wins."""
+    for prefix, names in name_readings(joint_names):
+        best, best_n = None, 0
+        for family in FAMILIES:
+            found = _resolve(names, family)
+            if len(found) > best_n and _covers(parents, found):
+                best, best_n = family, len(found)
+        if best is not None:
+            return best, prefix, names
+    return None, "", joint_names
 
 
 rig_family.cache_info = _family_of.cache_info  # as on a functools.cache function: what is kept, hits and misses
@@ -356,10 +401,10 @@ def roles(skeleton: Skeleton) -> dict[str, int]:
     >>> sk.joint_names[r["left_upper_arm"]], sk.joint_names[r["left_clavicle"]]
     ('LeftShoulder', 'LeftCollar')
     """
-    family = rig_family(skeleton)
+    family, _, names = _reading(skeleton)
     if family is None:
         return roles_by_topology(skeleton) or {"pelvis": pelvis_index(skeleton)}
-    found = _resolve(skeleton.joint_names, family)
+    found = _resolve(names, family)
     return {r: found[r] for r in ROLES if r in found}
 
 
@@ -374,9 +419,9 @@ def pelvis_index(skeleton: Skeleton) -> int:
     (the legs and the spine part there), or the root when the chain never
     branches.
     """
-    family = rig_family(skeleton)
+    family, _, names = _reading(skeleton)
     if family is not None:
-        return _resolve(skeleton.joint_names, family)["pelvis"]
+        return _resolve(names, family)["pelvis"]
     j = 0
     while True:
         kids = skeleton.children(j)

@@ -753,3 +753,19 @@ def test_info_says_what_clean_decisions_does_with_a_decisions_file(tmp_path, cho
     row = " ".join(next(ln for ln in text.splitlines() if ln.startswith("decisions")).split()[1:])
     assert row.startswith(said), row
     assert "accepted" not in row or not row.startswith("refused")
+
+
+def test_info_says_the_namespace_set_aside_to_find_the_family(tmp_path):
+    """A user trial: a Bandai Namco take exported as `mixamorig:Hips`, `mixamorig:UpperLeg_L` ... was of "none known"
+    family; now `info` names the family and the prefix set aside to find it (the file's names are kept)."""
+    import re
+    from pathlib import Path
+
+    source = Path(__file__).parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
+    take = tmp_path / "ns.bvh"
+    take.write_bytes(re.sub(rb"^(\s*(?:ROOT|JOINT)\s+)", rb"\1mixamorig:", source.read_bytes(), flags=re.M))
+    code, out, err = run("info", take, "--joints")
+    assert code == 0, err
+    said = " ".join(out.replace("│", " ").split())
+    assert "rig family bandai_namco (its names read without the prefix 'mixamorig:' they share" in said, out
+    assert "mixamorig:UpperLeg_L" in said

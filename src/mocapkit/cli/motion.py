@@ -30,7 +30,7 @@ def info(
     from ..io.c3d_contents import marker_counts, marker_file_contents, never_seen_line, zero_gaps_line
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
-    from ..rigs import rig_family, roles_by_topology
+    from ..rigs import family_prefix, rig_family, roles_by_topology
 
     check_asf(asf, [file], amc_fps, names=CLI_AMC_NAMES)
     if not file.exists():  # before the suffix: a missing model or knowledge base is missing, not of unknown kind
@@ -84,6 +84,8 @@ def info(
     if family is None:
         family = ("none known; roles read from its tree and rest pose" + _served_note(m)
                   if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
+    elif prefix := family_prefix(sk):  # a namespace before every name (Character1_Hips): matched without it
+        family += f" (its names read without the prefix {prefix!r} they share; the file's names are kept)"
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected"),

@@ -755,7 +755,8 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
     if smooth:  # the shipped EBF of the EBD's pair when none is given
         denoiser = _smoothing_ebf(m, denoiser, motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
-    doubts = [(m.layout.joints[g], *run) for g, *run in doubtful_runs(values, out, channel_joints(m.layout))]
+    doubts = [(sv.take_name(motion.skeleton, m.layout.joints[g]), *run)  # the file's name (its namespace kept)
+              for g, *run in doubtful_runs(values, out, channel_joints(m.layout))]
     res = decode_served(out, src, sv, keep=~missing)
     rot = np.array(res.rotations)
     for j in np.flatnonzero(missing[:, 1:].any(axis=0)) + 1:  # joints without channels hold one rotation

@@ -175,6 +175,12 @@ class Serving:
     body: np.ndarray | None = None
     shares: tuple[int, ...] = ()
     others: tuple[int, ...] = ()
+    names: tuple[str, ...] = ()  # direct: the take's joint names as the model reads them, where they are not the
+    # file's (its family's, a namespace set aside: mocapkit.rigs.family_names); () where they are the file's
+
+    def take_name(self, skeleton: Skeleton, name: str) -> str:
+        """The file's name in ``skeleton`` (the take's) of the joint the model calls ``name``."""
+        return skeleton.joint_names[self.names.index(name)] if name in self.names else name
 
     @property
     def retargeted(self) -> tuple[int, ...]:
@@ -318,7 +324,10 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     trained on) is served directly; so is one that has them among more
     joints (:func:`_own_joints`: each model joint by name with the model's
     channels, below another model joint or the root, in the model's order),
-    whose other joints the network leaves alone (``Serving.others``). An
+    whose other joints the network leaves alone (``Serving.others``); both
+    also by the names of the take's rig family with its namespace set aside
+    (:func:`mocapkit.rigs.family_names`: ``mixamorig:UpperLeg_L`` is the Bandai
+    Namco model's ``UpperLeg_L``). An
     Euler model of the Acclaim skeleton also serves a take whose rig family (:func:`mocapkit.rigs.rig_family`)
     plays every role its joints play, each below the joint of its parent
     role, in the Acclaim rest pose (the CMU BVH conversions of the
@@ -336,6 +345,14 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     if have.names == layout.names:
         return Serving(model, rigs.rig_family(sk), True)
     own = _own_joints(sk, layout)
+    if isinstance(own, str) and rigs.family_prefix(sk):  # a namespace (Character1_Hips): the family's names serve
+        bare = dataclasses.replace(sk, joint_names=rigs.family_names(sk))
+        if layout_for(bare, layout.representation).names == layout.names:
+            return Serving(model, rigs.rig_family(sk), True, names=bare.joint_names)
+        by_family = _own_joints(bare, layout)
+        if not isinstance(by_family, str):
+            others = tuple(j for j in range(1, sk.num_joints) if j not in set(by_family) and sk.rotation_order(j))
+            return Serving(model, rigs.rig_family(sk), True, joints=by_family, others=others, names=bare.joint_names)
     if not isinstance(own, str):
         others = tuple(j for j in range(1, sk.num_joints) if j not in set(own) and sk.rotation_order(j))
         return Serving(model, rigs.rig_family(sk), True, joints=own, others=others)
@@ -543,9 +560,18 @@ def encode(motion: Motion, serving: Serving) -> tuple[np.ndarray, np.ndarray]:
     means at every frame.
     """
     if serving.direct:
+        motion = _model_named(motion, serving)
         return encode_direct(restricted(motion, serving.joints) if serving.joints else motion, serving.layout)
     ctx = root_angular_velocity(_pelvis_rotation(motion, serving), motion.fps)
     return _channels(_dof_rotations(motion, serving), serving), ctx
+
+
+def _model_named(motion: Motion, serving: Serving) -> Motion:
+    """``motion`` with its joints named as ``serving`` reads them (:attr:`Serving.names`: the family's names, a
+    namespace set aside), the same arrays; ``motion`` itself where they are the file's."""
+    if not serving.names:
+        return motion
+    return dataclasses.replace(motion, skeleton=dataclasses.replace(motion.skeleton, joint_names=serving.names))
 
 
 def _channels(m: np.ndarray, serving: Serving) -> np.ndarray:
@@ -596,14 +622,15 @@ def decode(values: np.ndarray, like: Motion, serving: Serving, keep: np.ndarray 
     smooths them: the network cannot see them).
     """
     if serving.direct and serving.joints:  # the model's joints among more: written back onto them alone
-        part = restricted(like, serving.joints)
+        part = restricted(_model_named(like, serving), serving.joints)
         keep_part = None if keep is None else np.asarray(keep, dtype=bool)[:, sorted({0, *serving.joints})]
         out = decode_direct(values, part, serving.layout, keep=keep_part)
         rot = np.array(like.rotations)
         rot[:, list(serving.joints)] = out.rotations[:, [part.skeleton.index(n) for n in serving.layout.joints]]
         return dataclasses.replace(like, rotations=rot)
     if serving.direct:
-        return decode_direct(values, like, serving.layout, keep=keep)
+        out = decode_direct(values, _model_named(like, serving), serving.layout, keep=keep)
+        return dataclasses.replace(out, skeleton=like.skeleton) if serving.names else out
     values = np.asarray(values, dtype=np.float64)
     F = like.num_frames
     if values.shape != (F, serving.layout.num_channels):
