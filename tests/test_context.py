@@ -243,6 +243,20 @@ def test_fit_context_renames_a_database_on_the_same_rig_and_refuses_another():
     assert C.fit_context(bvh, motions) == (motions, "")  # lists go to the analysis as they are
 
 
+def test_fit_context_serves_the_context_names_under_a_namespace_without_a_note():
+    """A take whose joints are the context's names under a namespace (`rig|lfemur`, `Character1:lfemur`: the
+    prefix is set aside for the rig family, mocapkit.rigs.family_names) gets the context by name, with no note, as
+    the bare names do: the same summary, whatever the prefix."""
+    walk = mocapkit.load(mocapkit.samples.path("12_walk.amc"))
+    db = C.default_context()
+    sk = walk.skeleton
+    for prefix in ("rig|", "Character1:"):
+        take = dataclasses.replace(walk, skeleton=dataclasses.replace(sk, joint_names=tuple(prefix + n for n in sk.joint_names)))
+        served, note = C.fit_context(take, db)
+        assert served.skeletons[0].joint_names == take.skeleton.joint_names and note == ""
+        assert np.shares_memory(served.rotations, db.rotations)
+
+
 def _chosen_copy(db) -> MotionDatabase:
     """``db``'s arrays as a database the user chose (not the bundled default, which is dropped, not refused)."""
     return MotionDatabase(fps=db.fps, skeletons=db.skeletons, clips=db.clips, rotations=db.rotations,

@@ -648,7 +648,9 @@ def fit_context(motion, context):
 
     A list of Motions and a database on the take's joint names and up axis
     come back as they are; a database built under a joint map (``info["joint_map"]``, :func:`build_context`)
-    serves a take whose joints the map names as the database's, on the same up axis, renamed to the take's. A database on the same topology and rest pose under other joint
+    serves a take whose joints the map names as the database's, on the same up axis, renamed to the take's; so
+    does a database on the take's names with a namespace set aside (``rig|lfemur``:
+    :func:`mocapkit.rigs.family_names`), without a note. A database on the same topology and rest pose under other joint
     names (module docstring) comes back with its joints renamed to the take's
     (arrays shared, nothing copied) and a note saying so. Otherwise the
     bundled default context is dropped (``(None, note)``: the take is judged
@@ -656,6 +658,7 @@ def fit_context(motion, context):
     :class:`~mocapkit.errors.MocapError` giving the reason.
     """
     from .database import MotionDatabase
+    from .rigs import family_names
 
     if not isinstance(context, MotionDatabase):
         return context, ""
@@ -671,6 +674,11 @@ def fit_context(motion, context):
             return _renamed_context(context, names), "; ".join(
                 n for n in (built, f"{context_label(context)}: joints named by its joint map "
                                    f"({names[1]!r} -> {mapped[1]!r}, ...)") if n)
+    bare = family_names(motion.skeleton)
+    if bare != names and tuple(ref.joint_names) == bare:
+        # the context's names under a namespace (rig|lfemur, mocapkit.rigs.family_prefix): its joints, by name
+        if not _other_up_axis(dataclasses.replace(motion.skeleton, joint_names=bare), ref):
+            return _renamed_context(context, names), built
     if tuple(ref.joint_names) == names:
         # the same names on another basis (a Z-up export of a Y-up rig keeps them): the context's local rotations
         # are in the other basis; other rest differences of a rig under the same names (an actor's toes 33 deg
