@@ -332,7 +332,9 @@ def rig_family(skeleton: Skeleton) -> str | None:
     before the CMU conversions, whose names it shares: a rig that has none of
     the CMU-only joints is read as HumanIK; the 3dsMax conversion before Xsens
     MVN: a Biovision trunk of ``Chest`` and ``Chest2`` keeps the 3dsMax reading).
-    None when no family fits.
+    Where the names as written fit none, they are matched again with a
+    namespace they share set aside (:func:`family_prefix`). None when no
+    family fits.
 
     >>> import mocapkit
     >>> rig_family(mocapkit.load(mocapkit.samples.path("131_01.bvh")).skeleton)
