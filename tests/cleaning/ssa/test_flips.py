@@ -249,3 +249,34 @@ def test_a_turn_over_lasting_to_the_takes_end_is_not_said_to_turn_back():
     j = take.skeleton.index("RThumb")
     assert cause_names(review.causes[78:, j]) == ["turned 180 deg in one frame (a turn-over, mocapkit.cleaning.ssa.flips)"]
     assert np.array_equal(review.motion.rotations, take.rotations)
+
+
+def test_a_long_takes_turn_overs_are_each_checked_on_their_own_frames_not_on_the_whole_take(monkeypatch):
+    """Each turn-over was repaired on a copy of the whole take and checked on a Motion of the whole take (its
+    quaternions all validated): the cost of a turn-over grew with the take, and as turn-overs come with its
+    length, the step with the square of it (a 9-minute HDM05 take: 16 s in turned_back, 18 s repair step in all).
+    Now each reads a few frames around its run. The bundled 131_01's two RThumb half turns, twelve times over:
+    the same outcome at each copy as on one (turned back, left), bit for bit, and no Motion of the take's
+    length built but the one returned."""
+    from mocapkit.motion import Motion, concatenate
+
+    one = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[150:260]
+    take = concatenate([one] * 12)
+    F, n = take.num_frames, one.num_frames
+    built = []
+    post_init = Motion.__post_init__
+
+    def counting(self):
+        built.append(np.shape(self.rotations)[0])
+        post_init(self)
+
+    ref, ref_changed, _, ref_flips = turned_back(one, ["RThumb", "LThumb"])
+    monkeypatch.setattr(Motion, "__post_init__", counting)
+    out, changed, _, flips = turned_back(take, ["RThumb", "LThumb"])
+    monkeypatch.undo()
+    assert [f.fixed for f in ref_flips] == [True, False]
+    assert [(f.first, f.last, f.fixed) for f in flips] == [(f.first + k * n, f.last + k * n, f.fixed)
+                                                         for k in range(12) for f in ref_flips]
+    assert np.array_equal(changed, np.tile(ref_changed, (12, 1)))
+    assert np.array_equal(out.rotations, np.tile(ref.rotations, (12, 1, 1)))
+    assert built.count(F) == 1  # the take returned; before: one per turn-over checked as well (13)

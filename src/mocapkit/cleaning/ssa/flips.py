@@ -60,6 +60,8 @@ STEP_OK_DEG = 20.0
 LIMIT_TOL_DEG = 1.0
 #: why a turn-over is left where it is not turned back by the take's end: it has no "and back"
 LASTS_TO_END = "it lasts to the end of the take"
+#: frames each side of a turn-over's run that its repair and checks are given (they read two each side)
+WINDOW_MARGIN = 3
 HALF_TURN_DEG = 179.99  # a leaf turned back by at least this everywhere was turned back by a half turn exactly
 
 
@@ -276,24 +278,32 @@ def point_steps(motion) -> np.ndarray:
     return np.linalg.norm(np.diff(p, axis=0), axis=-1)
 
 
-def _check(motion, new_q: np.ndarray, joints: list[int], a: int, b: int, usual: np.ndarray) -> str:
-    """Why turning back frames ``a .. b`` of ``joints`` (``new_q`` (F, J, 4) the take's rotations after) is not
-    right, or "" when it is: each joint's step at both ends at most :data:`STEP_OK_DEG` and smaller than it was;
-    no joint or end site stepping further there than it did by more than ``usual`` (P,), its own 95th-percentile
-    step over the take; the file's channels able to hold the new rotations; and a one-channel joint (a knee's
-    hinge) inside its ASF limits, or out by no more than the take is beside the run (+ :data:`LIMIT_TOL_DEG`)."""
+def _check(motion, q: np.ndarray, new_q: np.ndarray, joints: list[int], a: int, b: int, usual: np.ndarray,
+           at: int = 0) -> str:
+    """Why turning back frames ``a .. b`` of ``joints`` is not right, or "" when it is: each joint's step at both
+    ends at most :data:`STEP_OK_DEG` and smaller than it was; no joint or end site stepping further there than it
+    did by more than ``usual`` (P,), its own 95th-percentile step over the take; the file's channels able to hold
+    the new rotations; and a one-channel joint (a knee's hinge) inside its ASF limits, or out by no more than the
+    take is beside the run (+ :data:`LIMIT_TOL_DEG`).
+
+    ``q`` and ``new_q`` (n, J, 4): the take's rotations before and after over frames ``at .. at + n - 1``, which hold
+    frames ``a - 1 .. b + 1`` where the take has them (``motion``'s own rotations are not read: the turn-overs
+    turned back before this one are in ``q``). Only those frames are read, so a check costs the same on a take of
+    any length (:func:`turned_back` passes a few frames around the run, not the take: a copy of the whole take
+    per turn-over made a 9-minute take's turn-overs cost 16 s, growing as the square of its length)."""
     sk = motion.skeleton
-    q = np.asarray(motion.rotations)
-    F = len(q)
+    F = motion.num_frames
     steps = [s for s in (a, b + 1) if 1 <= s < F]
     for j in joints:
         for s in steps:
-            after = float(np.degrees(R.geodesic_angle(new_q[s - 1, j], new_q[s, j])))
-            before = float(np.degrees(R.geodesic_angle(q[s - 1, j], q[s, j])))
+            after = float(np.degrees(R.geodesic_angle(new_q[s - 1 - at, j], new_q[s - at, j])))
+            before = float(np.degrees(R.geodesic_angle(q[s - 1 - at, j], q[s - at, j])))
             if after > STEP_OK_DEG or after >= before:
                 return f"{sk.joint_names[j]} would still step {after:.0f} deg at frame {s}"
     lo, hi = max(a - 1, 0), min(b + 2, F)
-    part, fixed = motion[lo:hi], dataclasses.replace(motion[lo:hi], rotations=new_q[lo:hi])
+    around = motion[lo:hi]
+    part = dataclasses.replace(around, rotations=q[lo - at : hi - at])
+    fixed = dataclasses.replace(around, rotations=new_q[lo - at : hi - at])
     m0, m1 = point_steps(part), point_steps(fixed)
     names = list(sk.joint_names) + list(sk.end_site_names)
     scale, unit = (sk.unit_cm, "cm") if sk.unit_cm else (1.0, "file units")
@@ -383,7 +393,7 @@ def turned_back(motion, leaves=()) -> tuple:
             apart = _offsets_apart(q[:, j], a, b) if b is not None else 0.0
             k += 1 if apart > 90.0 and k + 2 < len(at) else 2
     flips = []
-    out = q
+    out = q  # copied once, at the first turn-over turned back
     usual = np.percentile(point_steps(motion), 95, axis=0) if found else None
     for a, b, chain, kind in sorted(found, key=lambda x: (x[0], x[2][0])):
         joint_names = tuple(names[c] for c in chain)
@@ -391,27 +401,34 @@ def turned_back(motion, leaves=()) -> tuple:
             flips.append(Flip(joint_names, a, F - 1, kind, False, LASTS_TO_END))
             flagged[a:, chain] = True
             continue
+        # every repair and check reads frames a - 2 .. b + 2 only: they run on those frames (and one more each
+        # side), not on a copy of the whole take per turn-over, the same numbers (the window keeps the take's
+        # own ends, so a run near one is refused as before)
+        w0, w1 = max(a - WINDOW_MARGIN, 0), min(b + 1 + WINDOW_MARGIN, F)
+        win, a0, b0 = out[w0:w1], a - w0, b - w0
         if kind == "bone":
-            new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b)
-            why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+            new, joints, stepped = _chain_repair(win, g[w0:w1], sk, axes, chain, a0, b0)
+            why = _check(motion, win, new, joints, a, b, usual, at=w0)
             if why and stepped:  # the joint below's steps cannot go (its channels, limits): turned back without them
-                new, joints, stepped = _chain_repair(out, g, sk, axes, chain, a, b, below_steps=False)
-                why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+                new, joints, stepped = _chain_repair(win, g[w0:w1], sk, axes, chain, a0, b0, below_steps=False)
+                why = _check(motion, win, new, joints, a, b, usual, at=w0)
         else:
-            new, why = _leaf_repair(out, chain[0], a, b, _channel_halves(sk, chain[0]))
+            new, why = _leaf_repair(win, chain[0], a0, b0, _channel_halves(sk, chain[0]))
             joints = chain
             if new is not None:
-                why = _check(dataclasses.replace(motion, rotations=out), new, joints, a, b, usual)
+                why = _check(motion, win, new, joints, a, b, usual, at=w0)
         flagged[a : b + 1, chain] = True
         if why:
             flips.append(Flip(joint_names, a, b, kind, False, why))
             continue
-        out = new
+        if out is q:
+            out = np.array(q)
+        out[w0:w1] = new
         changed[a : b + 1, joints] = True
         flagged[a : b + 1, joints] = True
         turned = ()
         if kind == "leaf":  # what the leaf was turned back by: a half turn exactly, or the measured offsets
-            moved = np.degrees(R.geodesic_angle(q[a : b + 1, chain[0]], new[a : b + 1, chain[0]]))
+            moved = np.degrees(R.geodesic_angle(q[a : b + 1, chain[0]], new[a0 : b0 + 1, chain[0]]))
             turned = (float(moved.min()), float(moved.max()))
         flips.append(Flip(joint_names, a, b, kind, True, steps_below=tuple(names[c] for c in stepped)
                           if kind == "bone" else (), turned_deg=turned))
