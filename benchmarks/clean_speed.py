@@ -2,9 +2,12 @@
 
 The take is :func:`clean_takes.long_take` (HDM05 actor mm clips concatenated, cut at 60 s, 7200
 frames) with clean_takes' mixed corruption (``mixed(take, 7)``: 4 real-style errors, gaps, Mall's
-0.5 angular noise on 3 joints), saved once as npz. Two worker processes load it, one importing this
-tree's ``src`` and one the baseline's (``--base``, default ``314138e``: main with issue 21's rule
-changes, before issue 23's data-flow merge f7358ba, so the outputs can be compared bit for bit;
+0.5 angular noise on 3 joints), saved once as npz. ``--seconds S`` cuts it at S seconds instead; past mm's
+clips (about 100 s) the take goes on with the other HDM05 actors' clips read on mm's skeleton, so
+``--seconds 540`` times a 9-minute take (it gave mm's 100 s for any S over 100 before). Two worker
+processes load it, one importing this tree's ``src`` and one the baseline's (``--base``, default
+``314138e``: main with issue 21's rule changes, before issue 23's data-flow merge f7358ba, so the outputs
+can be compared bit for bit;
 extracted with ``git archive`` into a temporary folder; or ``--baseline-src DIR``). Each warms up
 as ``make install`` leaves an installation (``mocapkit.warmup.warm_up()``: every kernel compiled or
 loaded, serial and parallel twins), then cleans a short clip once (shipped models loaded),
@@ -101,7 +104,7 @@ def main() -> None:
     ap.add_argument("--baseline-src", type=Path, default=None, help="a source tree to compare with instead of --base")
     ap.add_argument("--torch-threads", type=int, default=1, help="torch threads in both workers (0: each tree's own)")
     ap.add_argument("--numba-threads", type=int, default=0, help="NUMBA_NUM_THREADS in both workers (0: as set)")
-    ap.add_argument("--seconds", type=float, default=60.0, help="take length (default 60)")
+    ap.add_argument("--seconds", type=float, default=60.0, help="take length in seconds (default 60; past 100 the other actors' clips)")
     args = ap.parse_args()
 
     import mocapkit

@@ -139,9 +139,14 @@ def quality(quick: bool, fps: float | None = None) -> dict:
 
 
 def long_take(seconds: float = 60.0):
+    """(take, clips): HDM05 actor mm's clips concatenated and cut at ``seconds``. They last about 100 s; a longer
+    take goes on with the other actors' clips (bd, bk, dg, tr) read on mm's skeleton (``asf=HDM_mm.asf``: the same
+    joints and rotations, mm's bones), so ``clean_speed --seconds 540`` times a 9-minute take, not mm's 100 s."""
+    hdm = DATA / "hdm05_asfamc"
+    paths = sorted(hdm.glob("HDM_mm_*.amc")) + [p for a in ("bd", "bk", "dg", "tr") for p in sorted(hdm.glob(f"HDM_{a}_*.amc"))]
     clips, total = [], 0.0
-    for p in sorted((DATA / "hdm05_asfamc").glob("HDM_mm_*.amc")):
-        c = mocapkit.load(p)
+    for p in paths:
+        c = mocapkit.load(p, asf=hdm / "HDM_mm.asf")
         clips.append(c)
         total += c.duration
         if total >= seconds:
