@@ -290,7 +290,7 @@ def _check(motion, q: np.ndarray, new_q: np.ndarray, joints: list[int], a: int, 
     frames ``a - 1 .. b + 1`` where the take has them (``motion``'s own rotations are not read: the turn-overs
     turned back before this one are in ``q``). Only those frames are read, so a check costs the same on a take of
     any length (:func:`turned_back` passes a few frames around the run, not the take: a copy of the whole take
-    per turn-over made a 9-minute take's turn-overs cost 16 s, growing as the square of its length)."""
+    per turn-over grew as the square of its length, 6.7 s of CPU for a 9-minute HDM05 take's 64, now 3.3 s)."""
     sk = motion.skeleton
     F = motion.num_frames
     steps = [s for s in (a, b + 1) if 1 <= s < F]
