@@ -9,7 +9,8 @@ from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.ssa.cues import event_bounds, midpoint_residuals, own_breaks
-from mocapkit.cleaning.ssa.smooth_turns import smooth_turn, smooth_turn_breaks
+from mocapkit.cleaning.ssa.recurring_peaks import recurring_breaks
+from mocapkit.cleaning.ssa.smooth_turns import coarse_turn, smooth_turn, smooth_turn_breaks
 
 JUMP = 8.0  # SSAParams().jump_deg
 
@@ -131,3 +132,66 @@ def test_clean_leaves_the_walks_wrist_flick_unflagged_and_untouched(walk):
     assert not res.flags[225:255, j].any() and not res.flags[795:815, j].any()
     assert np.array_equal(res.motion.rotations[:, j], walk.rotations[:, j])
     assert not any("RightWrist" in line for line in res.summary())
+
+
+def _breaks_at(m):
+    """(q, resid, breaks) of ``m`` as detect reads them before the smooth turns (own level, then recurring peaks)."""
+    q = np.asarray(m.rotations, dtype=np.float64)
+    resid = midpoint_residuals(q)
+    return q, resid, recurring_breaks(resid, own_breaks(resid, JUMP, m.fps, q), m.fps, JUMP)
+
+
+def test_the_walks_wrist_flick_at_30_fps_is_a_coarse_turn_and_breaks_at_120_fps_stay(walk):
+    """131_01 at 30 fps (every 4th frame, as clean_untouched's cmu_bvh_30fps): the wrist turns 75, 87 and 54 deg in
+    three frames (58-61, steps 150 deg apart), the 120 fps flick at frame 235 sampled coarsely; no break there."""
+    low = walk[::4]
+    q, resid, breaks = _breaks_at(low)
+    j = low.skeleton.index("RightWrist")
+    assert breaks[59:61, j].all()
+    assert not smooth_turn(q[:, j], resid[:, j], 59, 60, JUMP)  # the shape test reads a turn back at this rate
+    assert coarse_turn(q[:, j], resid[:, j], 59, 60, low.fps)
+    kept = smooth_turn_breaks(q, resid, breaks, JUMP, low.skeleton.parents, low.fps)
+    assert not kept[55:65, j].any()
+    assert np.array_equal(kept, smooth_turn_breaks(q, resid, breaks, JUMP, low.skeleton.parents) & kept)
+    q, resid, breaks = _breaks_at(walk)  # over about 60 fps the coarse test is not made
+    assert np.array_equal(smooth_turn_breaks(q, resid, breaks, JUMP, walk.skeleton.parents, walk.fps),
+                          smooth_turn_breaks(q, resid, breaks, JUMP, walk.skeleton.parents))
+
+
+def test_a_spike_step_or_held_frame_at_30_fps_is_no_coarse_turn():
+    """An error steps off the path in one or two fast steps, between steps at the joint's own pace."""
+    pace = np.full(15, 6.0)
+    cases = {"spike": np.r_[pace, 60.0, -60.0, pace], "step": np.r_[pace, 70.0, pace],
+             "two-frame spike": np.r_[pace, 60.0, 6.0, -60.0, pace], "held": np.r_[pace, 50.0, 60.0, 0.0, 55.0, pace]}
+    for name, steps in cases.items():
+        q = _track(steps)
+        resid = midpoint_residuals(q[:, None])[:, 0]
+        events = _events(q)
+        assert events and not any(coarse_turn(q, resid, a, b, 30.0) for a, b in events), name
+    flick = _track(np.r_[pace, 75.0, 87.0, 54.0, pace])  # three fast steps: a turn, whichever way each points
+    resid = midpoint_residuals(flick[:, None])[:, 0]
+    assert all(coarse_turn(flick, resid, a, b, 30.0) for a, b in _events(flick))
+    small = _track(np.r_[pace, 20.0, 20.0, 20.0, 45.0, 5.0, pace])  # under what limb motion makes at 30 fps
+    resid = midpoint_residuals(small[:, None])[:, 0]
+    assert _events(small) and not any(coarse_turn(small, resid, a, b, 30.0) for a, b in _events(small))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_injected_error_still_breaks_at_30_fps(walk, seed):
+    low = walk[::4]
+    bad, mask, records = corrupt.real_errors(low, n_errors=6, seed=seed)
+    q, resid, breaks = _breaks_at(bad)
+    kept = smooth_turn_breaks(q, resid, breaks, JUMP, bad.skeleton.parents, bad.fps)
+    for r in records:
+        j = bad.skeleton.index(r.joint)
+        near = slice(max(r.start - 2, 0), r.end + 2)
+        assert kept[near, j].any() == breaks[near, j].any(), r
+
+
+def test_clean_leaves_the_walks_wrist_flick_at_30_fps_untouched(walk):
+    """clean_untouched's cmu_bvh_30fps: clean (defaults) moved 131_01's RightWrist frames 59-60 by 49 and 72 deg."""
+    low = walk[::4]
+    res = clean(low)
+    j = low.skeleton.index("RightWrist")
+    assert not res.flags[:, j].any()
+    assert np.array_equal(res.motion.rotations[:, j], low.rotations[:, j])

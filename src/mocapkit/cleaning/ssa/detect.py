@@ -583,7 +583,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     jumps = recurring_breaks(resid, jumps, motion.fps, p.jump_deg)
     # a fast turn that speeds up and slows down over several frames and never turns back (a hand's flick) is motion
     jumps = smooth_turn_breaks(np.asarray(motion.rotations, dtype=np.float64), resid, jumps, p.jump_deg,
-                               motion.skeleton.parents)
+                               motion.skeleton.parents, motion.fps)
     # a turn the joint's chain undoes (a solver sharing a bend another way) is no evidence of an error
     chain_memo: dict = {}  # the break events judged compensated or not, read again by the lone spikes
     jumps = uncompensated_breaks(np.asarray(motion.rotations, dtype=np.float64), motion.skeleton.parents, jumps,
@@ -704,7 +704,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # (a chain turned over in place confirms nothing there either)
     backed = backed_breaks(q, resid, digression, analysed, motion.fps, sk.parents, p.jump_deg, p.offset_min_deg,
                            memo=chain_memo, offsets=backs_offsets(motion.fps, p.analysis_fps))
-    backed = smooth_turn_breaks(q, resid, backed, p.jump_deg, sk.parents)  # a smooth turn backs no break either
+    backed = smooth_turn_breaks(q, resid, backed, p.jump_deg, sk.parents, motion.fps)  # nor does a smooth turn
     if backed.any():
         jumps |= backed & position_kept_breaks(positions, sk.parents, unpruned | backed, resid)
     jumps &= analysed[None, :]

@@ -28,6 +28,27 @@ and 131_03's, a turn of 131_03's right thumb, the pirouette's right foot, three 
 swings). What it costs: an error smaller than the steps of a turn this fast, where it happens, confirms nothing (a
 30 deg spike at the peak of a turn of 40-55 deg a frame; one of 60 deg turns the path back and still breaks). A
 cue of this library, not of the paper (Aristidou et al. 2018 flag ``MDM > threshold``, section 3.4).
+
+At low frame rates the same flick is sampled too coarsely for that shape: the frame time is a large share of the
+turn, so its overshoot and return fall between two frames and the steps point every way. CMU 131_01 at 30 fps (every
+4th frame, as ``benchmarks/clean_untouched.py``'s ``cmu_bvh_30fps``) turns the right wrist 75, 87 and 54 deg in
+three successive frames (frames 58-61, steps 150 deg apart, midpoint residuals up to 69 deg: a turn back by the
+first test, and a speed ratio of 14 as it stops), 131_03 at 30 fps 87, 74 and 115 deg (frames 62-65, 112 deg
+apart); at 120 fps both are the smooth flicks above. The break confirmed the digression beside it and the flick was
+repaired (131_03's wrist moved by up to 163 deg). An error at that rate still steps off the joint's path at once: a
+spike's step out and back, a flip's, drift's, freeze's or swap's step on or off, is one or two fast steps between
+steps at the joint's own pace (a freeze's held frames do not move at all). A fast turn keeps moving:
+:data:`COARSE_RUN` successive steps or more, each at least :data:`COARSE_SHARE` of the event's largest midpoint
+residual (:func:`coarse_turn`), asked of the events past what limb motion can make at the take's rate (33 deg at 30
+fps), which no speed beside them explains (:func:`~mocapkit.cleaning.ssa.cues.motion_explained`); a smaller one (a
+swap's 10 deg end step on an arm moving 10 deg a frame) is that rule's. Where no limb motion can break (the
+:data:`~mocapkit.cleaning.ssa.cues.MAX_ACCEL_DEG_S2` cap under the break level: over about 60 fps) the test is not
+made, so nothing changes at 120 fps. Measured at 30 fps (every 4th frame) on 45 clean takes (every 20th HDM05 clip,
+the CMU ASF/AMC and BVH takes, every 150th Bandai Namco take) and the 810 errors of
+:func:`mocapkit.corrupt.real_errors` that break there (three seeds, six errors each): every error keeps a break
+(one swap of a thumb keeps fewer cells); 14 break cells of the clean takes go. What it costs, at 24-30 fps only: an error on a joint already turning three quarters of
+the error's size a frame, right where it turns, confirms nothing (a 60 deg spike on a wrist turning 45 deg a frame,
+a flip on one turning 68 deg a frame).
 """
 
 from __future__ import annotations
@@ -35,15 +56,21 @@ from __future__ import annotations
 import numpy as np
 
 from ... import rotations as R
+from .cues import MAX_ACCEL_DEG_S2
 from .events import event_bounds
 
-__all__ = ["CHAIN_DEPTH", "SPEED_RATIO", "TURN_BACK_DEG", "smooth_turn", "smooth_turn_breaks"]
+__all__ = ["CHAIN_DEPTH", "COARSE_RUN", "COARSE_SHARE", "SPEED_RATIO", "TURN_BACK_DEG", "coarse_turn", "smooth_turn",
+           "smooth_turn_breaks"]
 
 #: the most one step of a smooth turn may be of the step beside it, either way (131_01's flick: 2.9, as its
 #: 34 deg step slows to 12; every injected error's event over 4.8)
 SPEED_RATIO = 4.0
 #: two successive steps of a smooth turn point less than this far apart (a turn back points about 180 deg away)
 TURN_BACK_DEG = 90.0
+#: successive fast steps a coarsely sampled turn makes at least (an error's step: one; a spike out and back: two)
+COARSE_RUN = 3
+#: a fast step of a coarsely sampled turn: at least this share of the event's largest midpoint residual
+COARSE_SHARE = 0.75
 #: how many joints up the chain :func:`smooth_turn_breaks` looks for a break that moves the joint
 CHAIN_DEPTH = 3
 
@@ -74,8 +101,41 @@ def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_de
     return bool((cos > np.cos(np.radians(TURN_BACK_DEG))).all())
 
 
+def coarse_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, fps: float) -> bool:
+    """Whether the break event ``first .. last`` (frames) of one joint's track is a fast turn sampled coarsely.
+
+    ``q`` (F, 4) the joint's unit quaternions, ``resid`` (F,) its midpoint residuals in radians, ``fps`` the take's
+    rate. The event's largest residual must pass what limb motion can make at that rate
+    (:data:`~mocapkit.cleaning.ssa.cues.MAX_ACCEL_DEG_S2` ``/ (2 fps^2)``, 33 deg at 30 fps: the breaks no speed
+    explains, :func:`~mocapkit.cleaning.ssa.cues.motion_explained`; those under it are that rule's and
+    :mod:`~mocapkit.cleaning.ssa.recurring_peaks`'), and the steps read, ``q[first - 2] -> q[first - 1]`` to
+    ``q[last + 1] -> q[last + 2]`` as :func:`smooth_turn` reads them, hold :data:`COARSE_RUN` successive ones or more
+    that each turn at least :data:`COARSE_SHARE` of that residual, none held (module docstring). An event too near
+    the take's ends for them is not one (kept as a break). Over about 60 fps no limb motion breaks at all:
+    :func:`smooth_turn_breaks` asks it under that only.
+    """
+    F = len(q)
+    if first < 2 or last + 2 >= F:
+        return False
+    peak = float(np.max(resid[first : last + 1]))
+    if peak <= np.radians(MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2)):
+        return False
+    seg = np.asarray(q[first - 2 : last + 3], dtype=np.float64)
+    if not np.isfinite(seg).all():
+        return False
+    s = R.geodesic_angle(seg[1:], seg[:-1])  # (last - first + 4,) radians
+    if (s <= 0.0).any():
+        return False  # a held frame: a freeze let go, not a turn
+    fast = s >= COARSE_SHARE * peak
+    run = longest = 0
+    for f in fast:
+        run = run + 1 if f else 0
+        longest = max(longest, run)
+    return longest >= COARSE_RUN
+
+
 def smooth_turn_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, jump_deg: float,
-                       parents=None) -> np.ndarray:
+                       parents=None, fps: float | None = None) -> np.ndarray:
     """``breaks`` (F, J) bool without the events that are smooth turns (:func:`smooth_turn`).
 
     ``q`` (F, J, 4) local rotations, ``resid`` (F, J) radians (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`),
@@ -85,17 +145,23 @@ def smooth_turn_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, jum
     dg_squat1Reps_026's right foot turns 180 deg in 9 smooth frames around the frame its thigh turns back over in
     one, a turn-over of the capture's own: the toes swing 6-18 times their usual speed). Used for the breaks that
     confirm a digression (:func:`~mocapkit.cleaning.ssa.detect`'s ``jumps``); the frozen channels' own breaks are left
-    as they are.
+    as they are. With ``fps`` (the take's rate) under about 60 (where
+    :data:`~mocapkit.cleaning.ssa.cues.MAX_ACCEL_DEG_S2` lets limb motion break), the events that are fast turns
+    sampled coarsely (:func:`coarse_turn`) are left out too, unless a joint up the chain breaks by its own
+    ``breaks`` meanwhile (at that rate a fast arm's own motion passes ``jump_deg`` as the wrist flicks at its end).
     """
     out = np.array(breaks, dtype=bool)
     F = len(out)
     level = np.radians(jump_deg)
+    coarse = fps is not None and MAX_ACCEL_DEG_S2 / (2.0 * float(fps) ** 2) > jump_deg
     for j in np.flatnonzero(out.any(axis=0)):
         frames = np.flatnonzero(out[:, j])
         first, last, event = event_bounds(frames)
         ups = _ancestors(parents, int(j)) if parents is not None else []
-        smooth = np.array([smooth_turn(q[:, j], resid[:, j], int(a), int(b), jump_deg)
-                           and not (resid[max(a - 2, 0) : min(b + 3, F)][:, ups] > level).any()
+        smooth = np.array([(smooth_turn(q[:, j], resid[:, j], int(a), int(b), jump_deg)
+                            and not (resid[max(a - 2, 0) : min(b + 3, F)][:, ups] > level).any())
+                           or (coarse and coarse_turn(q[:, j], resid[:, j], int(a), int(b), fps)
+                               and not breaks[max(a - 2, 0) : min(b + 3, F)][:, ups].any())
                            for a, b in zip(first, last)], dtype=bool)
         out[frames[smooth[event]], j] = False
     return out
