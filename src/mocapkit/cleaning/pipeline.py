@@ -151,7 +151,7 @@ from .noise_scope import with_body_noise
 from .stutters import find_stutters, stutter_frames
 from .whole_take import (MAX_WORD_ANGLE_DEG, denoise_guarded, detect_take, differing, fill_take, flagged_in_all_note,
                          motion_span, repair_whole, review_whole, take_params, teleports_note, turn_overs_note,
-                         with_flips, with_teleports)
+                         with_flips, with_swaps, with_teleports)
 from .zeros import find_zeros
 
 __all__ = ["STEPS", "CleanResult", "StepRecord", "clean", "capped_lines", "noise_level", "noise_direction", "noisy_cells", "clean_path", "parse_steps",
@@ -677,12 +677,13 @@ def clean(
         # the root cells put back: flagged in the record, so a person can undo them
         detected = flags
         flags, causes = with_teleports(flags, causes, done.teleported)
+        flags, causes = with_swaps(flags, causes, done.swapped)  # both sides of a swap exchanged back: tied
         flags, causes = with_flips(flags, causes, done.turn_flags)  # turn-overs turned back or named: named below
         note = "; ".join(done.put_back) if done.put_back else "" if flags.any() else "nothing flagged"
         notes.extend(done.flips)  # every one: a flag's outcome in the report reads its line
         # the flags in all, as the report lists them: detect's note counts only what detection flagged
         note = "; ".join(x for x in (note, turn_overs_note(done.flips),
-                                     flagged_in_all_note(detected, flags, done.teleported, done.turn_flags),
+                                     flagged_in_all_note(detected, flags, done.teleported, done.turn_flags, done.swapped),
                                      done.measured) if x)  # kept or changed whole
         if done.left:  # runs the repair guard gave back as they were: flagged, not changed, named
             notes.extend(capped_lines(done.left, "runs left"))

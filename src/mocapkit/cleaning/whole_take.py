@@ -377,7 +377,10 @@ class TakeRepair:
     the turn-overs named and left (:func:`mocapkit.cleaning.ssa.flips.turned_back`); ``flips``: one line per
     turn-over ("flip: lfemur (with ltibia) turned 180 deg about itself, frames 78-82, ..."); ``measured``: what
     became of the repaired cells the take's file gives partly ``nan`` (their measured channels kept, or changed
-    with the repair standing whole, and why: :func:`~mocapkit.cleaning.measured.kept_note`), "" for none."""
+    with the repair standing whole, and why: :func:`~mocapkit.cleaning.measured.kept_note`), "" for none;
+    ``swapped``: (F, J) bool or None, the cells exchanged back with their left/right partner's mirrored rotation
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.exchanged_cells`), on both sides of each swap, whether detection
+    flagged it as one or the repair found it (a swap flagged on one side only)."""
 
     motion: Motion
     repaired: np.ndarray
@@ -388,6 +391,7 @@ class TakeRepair:
     turn_flags: np.ndarray | None = None
     flips: tuple = ()
     measured: str = ""
+    swapped: np.ndarray | None = None
 
     @property
     def changed(self) -> np.ndarray:
@@ -432,8 +436,16 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     leaves = [name for name, _ in getattr(detection, "left_out", ()) or ()]
     put_back = tuple(e for e in done if e.fixed)
     measured = kept_note(kept, motion.skeleton.joint_names, "repair", stood)
-    return (TakeRepair(back, moved, teleported, tuple(str(e) for e in put_back), left, measured=measured), span, leaves,
-            put_back)
+    swapped = None
+    if moved.any():
+        from ..motion import mirror_pairs
+        from .ssa.cues import mirrored_rotations
+        from .ssa.swap_exchange import exchanged_cells
+
+        swapped = exchanged_cells(motion.rotations, back.rotations, mirrored_rotations(motion),
+                                  mirror_pairs(motion.skeleton.joint_names))
+    return (TakeRepair(back, moved, teleported, tuple(str(e) for e in put_back), left, measured=measured,
+                       swapped=swapped), span, leaves, put_back)
 
 
 #: the reason a review gives for leaving a turn-over the repair step turns back (``clean --steps detect``, ``detect``)
@@ -605,6 +617,20 @@ def with_flips(flags: np.ndarray, causes: np.ndarray | None, turn_flags: np.ndar
     return flags | turn_flags, causes
 
 
+def with_swaps(flags: np.ndarray, causes: np.ndarray | None, swapped: np.ndarray | None):
+    """``(flags, causes)`` (F, J) with the cells a repair exchanged back with their left/right partner
+    (``swapped``, :attr:`TakeRepair.swapped`) flagged, cause ``swap`` (:data:`mocapkit.cleaning.ssa.cues.CAUSES`),
+    so that a record ties the two sides of each swap (:mod:`mocapkit.cleaning.ties`), the frames and the side
+    detection's flags missed included; the inputs as they are when there is none."""
+    if swapped is None or not swapped.any():
+        return flags, causes
+    from .ssa.cues import CAUSE_DTYPE, CAUSES
+
+    causes = np.zeros(flags.shape, dtype=CAUSE_DTYPE) if causes is None else np.array(causes, dtype=CAUSE_DTYPE)
+    causes[swapped] |= CAUSE_DTYPE(1 << [k for k, _ in CAUSES].index("swap"))
+    return flags | swapped, causes
+
+
 def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.ndarray):
     """``(flags, causes)`` (F, J) with the cells of the teleports put back (``teleported``, :class:`TakeRepair`)
     flagged, cause ``teleport`` (:data:`mocapkit.cleaning.ssa.cues.CAUSES`), so that a record lists them as changes
@@ -618,14 +644,15 @@ def with_teleports(flags: np.ndarray, causes: np.ndarray | None, teleported: np.
     return flags | teleported, causes
 
 
-def flagged_in_all_note(before: np.ndarray, after: np.ndarray, teleported=None, turned=None) -> str:
+def flagged_in_all_note(before: np.ndarray, after: np.ndarray, teleported=None, turned=None, swapped=None) -> str:
     """``"5 flagged segments in all with the turn-overs' cells (4 before)"``: what a step's record says when it
     flags cells (:func:`with_teleports`, :func:`with_flips`) beyond those detection flagged, so that the counts
     of the record agree with the flags the report lists (:func:`mocapkit.cleaning.decisions.flag_segments`, one
     run of frames of one joint each); "" when the step flagged nothing more.
 
     ``before``, ``after``: (F, J) bool flags before and after the step; ``teleported``, ``turned``: (F, J) bool
-    cells of its teleports and turn-overs (None: none), which name what it flagged. A turn-over touching a flag of
+    cells of its teleports and turn-overs, ``swapped`` of the swaps it exchanged back (:func:`with_swaps`) (None:
+    none), which name what it flagged. A turn-over touching a flag of
     detection lengthens that flag instead of adding one, so the count in all is said, not the difference.
     """
     from .ik import contact_segments
@@ -637,7 +664,7 @@ def flagged_in_all_note(before: np.ndarray, after: np.ndarray, teleported=None, 
     def runs(flags: np.ndarray) -> int:
         return sum(len(contact_segments(flags[:, j])) for j in np.flatnonzero(flags.any(axis=0)))
 
-    kinds = [what for what, cells in (("teleports", teleported), ("turn-overs", turned))
+    kinds = [what for what, cells in (("teleports", teleported), ("swaps", swapped), ("turn-overs", turned))
              if cells is not None and (np.asarray(cells, dtype=bool) & ~before).any()]
     whose = f" with the {' and '.join(kinds)}' cells" if kinds else ""
     return f"{plural(runs(after), 'flagged segment')} in all{whose} ({runs(before)} before)"

@@ -245,3 +245,29 @@ def test_a_clean_take_s_onset_judged_by_one_word_is_not_repaired_by_a_guess():
     np.testing.assert_array_equal(out.rotations, take.rotations)
     assert [(r.joint, r.start, r.end) for r in left] == [("LowerArm_R", 0, 6)]
     assert "take's first frame" in left[0].reason
+
+
+def test_a_swap_flagged_on_one_side_only_is_exchanged_back_on_both():
+    """A studio's trial: `corrupt --kind errors --seed 2` of the Bandai walk_normal_001 swaps the shins over frames
+    45-51; detection flags the right one over 47-51 alone. Repaired from neighbour words there, the right knee came
+    out at 54.5 deg (clean take 68.9) while the left kept the right one's bend (69.0, clean 27.3): both knees bent
+    at once, and no tie in the report. Exchanged back, both are the clean take's, and both sides' cells are the
+    record's swap (tied)."""
+    import os
+    from pathlib import Path
+
+    from mocapkit.cleaning.whole_take import repair_whole
+
+    root = Path(os.environ.get("MOCAPKIT_BANDAI_CACHE", Path.home() / ".cache" / "mocapkit" / "bandai_namco"))
+    path = root / "dataset" / "Bandai-Namco-Research-Motiondataset-1" / "data" / "dataset-1_walk_normal_001.bvh"
+    if not path.is_file():
+        pytest.skip("the Bandai Namco archive is not unpacked")
+    ref = mocapkit.load(path)
+    bad, _, _ = corrupt.corrupt(ref, kind="errors", seed=2)
+    det = detect_take(bad, None, params=take_params()).detection
+    knees = [ref.skeleton.index("LowerLeg_L"), ref.skeleton.index("LowerLeg_R")]
+    assert not det.flags[45:52, knees[0]].any() and not det.swaps[45:52, knees].any()
+    done = repair_whole(bad, det)
+    off = np.degrees(R.geodesic_angle(done.motion.rotations[45:52, knees], ref.rotations[45:52, knees]))
+    assert off.max() < 0.01
+    assert done.swapped[45:52, knees].all() and not done.swapped[:45].any() and not done.swapped[52:].any()

@@ -55,3 +55,41 @@ def test_the_exchange_is_made_only_where_it_joins_the_take():
     values, done = swap_exchanges(q, mirrored, cells, [1, 0])
     assert not done.any() and np.array_equal(values, q)
     assert not swap_exchanges(swapped, None, cells, [1, 0])[1].any()
+
+
+# -- a swap flagged on one side only (swap_exchange.partner_swaps) -------------------------------------------------
+
+def _knees_swapped(a: int, b: int):
+    """The bundled Bandai Namco walk (tests/data, walk-turn-left_exhausted_005, 30 fps) and a copy with its shins
+    swapped over frames a .. b (inclusive), each taking its partner's mirrored rotation, as ``corrupt --kind swap``
+    does; the knee indices."""
+    from pathlib import Path
+
+    take = mocapkit.load(Path(__file__).parents[2] / "data" / "dataset-2_walk-turn-left_exhausted_005.bvh")
+    names = take.skeleton.joint_names
+    knees = [names.index("LowerLeg_L"), names.index("LowerLeg_R")]
+    q = np.array(take.rotations)
+    q[a : b + 1, knees] = mirrored_rotations(take)[a : b + 1, knees]
+    return take, dataclasses.replace(take, rotations=q), knees
+
+
+def test_a_swap_flagged_on_one_side_over_part_of_it_is_found_whole():
+    """As in a studio's trial (Bandai walk_normal_001, ``corrupt --kind errors --seed 2``): the shins swapped over
+    45-51, flagged on the right over 47-51 only (the knees pass each other at 45, 1.9 deg from each other's mirror
+    image, and break little there). The partner's mirrored values join the take over the swap's own frames:
+    found, confirmed, over 45-51, on both knees; on the clean take, or one knee bent alone, nothing is."""
+    from mocapkit.cleaning.ssa.swap_exchange import partner_swaps
+    from mocapkit.motion import mirror_pairs
+
+    take, bad, (left, right) = _knees_swapped(45, 51)
+    flags = np.zeros(bad.rotations.shape[:2], dtype=bool)
+    flags[47:52, right] = True
+    found = partner_swaps(bad.rotations, mirrored_rotations(bad), flags, mirror_pairs(bad.skeleton.joint_names), 30.0)
+    assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in found] == [(right, left, 45, 51, True)]
+    clean = partner_swaps(take.rotations, mirrored_rotations(take), flags, mirror_pairs(take.skeleton.joint_names), 30.0)
+    assert clean == []
+    # one knee bent away from the take alone (an offset, its partner as captured): no swap
+    off = np.array(take.rotations)
+    off[47:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, 0.5])), off[47:52, right])
+    off_take = dataclasses.replace(take, rotations=off)
+    assert partner_swaps(off, mirrored_rotations(off_take), flags, mirror_pairs(take.skeleton.joint_names), 30.0) == []

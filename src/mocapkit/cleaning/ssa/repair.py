@@ -28,7 +28,7 @@ from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
-from .swap_exchange import pair_exchange, swap_exchanges
+from .swap_exchange import pair_exchange, partner_swaps, swap_exchanges
 from .undo import undone_offsets
 from ...words import plural
 
@@ -193,7 +193,12 @@ def repair_with_left(
     (:func:`~mocapkit.cleaning.ssa.undo.undone_offsets`), and the other
     runs blend into the track so mended. Likewise the cells of a side swap (not a time-reversed stretch)
     that the mirrored exchange joins to the take are exchanged back, each joint taking its partner's mirrored
-    rotation (:func:`~mocapkit.cleaning.ssa.swap_exchange.swap_exchanges`), not replaced. Every unflagged value is bit-identical to the input, except, with
+    rotation (:func:`~mocapkit.cleaning.ssa.swap_exchange.swap_exchanges`), not replaced; so are a swap
+    flagged on one side only, over the frames where the exchange joins the take, the partner's cells and the
+    swap's frames the flags missed included, and with ``guard`` a pair whose exchange fits the take better
+    but not at every end is left as it came, both sides named in ``left``
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.partner_swaps`). Every unflagged value is bit-identical to the
+    input, except such an exchange's and, with
     ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
     frame where its foot is planted (foot-skate cleanup, see
     :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
@@ -271,12 +276,14 @@ def repair_with_left(
                                            mirror_pairs(motion.skeleton.joint_names))
         base[exchanged] = values[exchanged]
         undone |= exchanged
+    # a swap flagged on one side only: its partner's mirrored values fit the frames beside the run (swap_exchange.py)
+    flags, kept_pairs = _partner_swaps(motion, flags, undone, base, detection.reversals, guard)
     # a run's end frame that lies on the joint's own path is no error's: its break is the next frame's (guard.py)
     on_path = np.zeros(flags.shape, dtype=bool)
     if guard:
         for j in np.flatnonzero((flags & ~undone).any(axis=0)):
             on_path[:, j] = on_path_ends(motion.rotations[:, j], flags[:, j] & ~undone[:, j])
-    todo = flags & ~on_path
+    todo = flags & ~on_path & ~kept_pairs
     flagged_frames_by_word: dict[tuple[int, int], list] = {}
     fi, ji = np.nonzero(todo & ~undone)
     for f, j in zip(fi, ji):
@@ -352,6 +359,7 @@ def repair_with_left(
     left: list[LeftRun] = []
     if guard:  # a run the take shows to be no better than its input is given back as it was (guard.py)
         left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path, own_next & ~undone)
+    left = _pair_lines(motion, kept_pairs) + left
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
         from .. import ik
@@ -363,6 +371,47 @@ def repair_with_left(
     if foot_skate:
         out = _foot_skate(motion, out, flags)
     return out, tuple(left)
+
+
+def _partner_swaps(motion: Motion, flags: np.ndarray, undone: np.ndarray, base: np.ndarray,
+                   reversals, guard: bool = True) -> tuple[np.ndarray, np.ndarray]:
+    """``(flags, kept)``: the swaps of a left/right pair flagged on one side only
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.partner_swaps`) put back. A confirmed one is exchanged back
+    into ``base`` (F, J, 4) and ``undone`` (F, J) (both changed in place), its cells on both joints flagged
+    (``flags`` returned with them: the frames the one side's flags missed, the partner's); an unconfirmed one's
+    cells on both joints are ``kept`` (F, J) bool: left as they came, neither side repaired from neighbour words,
+    which would leave one limb holding the other's motion (:func:`_pair_lines` names them); without ``guard``
+    none is kept, as every flagged cell is then repaired."""
+    kept = np.zeros(flags.shape, dtype=bool)
+    todo = flags & ~undone
+    if reversals is not None:
+        todo &= ~np.asarray(reversals, dtype=bool)
+    partner = mirror_pairs(motion.skeleton.joint_names)
+    if not any(todo[:, j].any() and partner[j] != j for j in range(len(partner))):
+        return flags, kept
+    mirrored = mirrored_rotations(motion)
+    found = partner_swaps(motion.rotations, mirrored, todo, partner, motion.fps)
+    flags = np.array(flags)
+    for sw in found:
+        cols, rows = [sw.joint, sw.partner], slice(sw.start, sw.end + 1)
+        if sw.confirmed:
+            base[rows, cols] = mirrored[rows, cols]
+            undone[rows, cols] = True
+            flags[rows, cols] = True
+        elif guard:
+            kept[rows, cols] = flags[rows, cols]
+            kept[sw.flagged[0] : sw.flagged[1] + 1, sw.joint] = True
+    return flags, kept
+
+
+def _pair_lines(motion: Motion, kept: np.ndarray) -> list[LeftRun]:
+    """The runs of ``kept`` (F, J) bool (:func:`_partner_swaps`), each named: left, a swap not confirmed."""
+    names = motion.skeleton.joint_names
+    partner = mirror_pairs(names)
+    return [LeftRun(names[j], int(a), int(b), f"its left/right partner {names[partner[j]]} digresses over these "
+                    "frames in the mirrored way (the two exchanged fit the frames beside them better, but not at "
+                    "every end: a swap not confirmed); a pair is put back together or not at all")
+            for j in np.flatnonzero(kept.any(axis=0)) for a, b in contact_segments(kept[:, j])]
 
 
 def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.ndarray, undone: np.ndarray,

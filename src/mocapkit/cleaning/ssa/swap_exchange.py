@@ -17,16 +17,25 @@ times the step the input makes there (the swap's own break). Elsewhere the run i
 A pair that detection did not name a swap is tried the same way where the repair guard leaves one side and its
 partner digresses over the same frames (:func:`pair_exchange`): a swap the detection took for two digressions
 (flagged by their breaks) was otherwise repaired on one side from neighbour words and left on the other.
+
+A swap detection flagged on one side only is found before the neighbour words are written
+(:func:`partner_swaps`): where the two sides exchanged join the frames beside one side's flagged run better
+than as they came, the exchange is made over the swap's own frames (its ends sought near the flags'), or,
+fitting better but not at every end, both sides are left as they came. The cells a repair exchanged, by any of
+these rules, are the record's swap on both joints (:func:`exchanged_cells`), so the report ties the two sides.
+A rule of this library, not of the paper.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from ... import rotations as R
 from ..runs import true_runs
 
-__all__ = ["pair_exchange", "swap_exchanges", "SWAP_JOIN_RATIO"]
+__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "pair_exchange", "partner_swaps", "swap_exchanges", "SWAP_JOIN_RATIO"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -121,3 +130,127 @@ def pair_exchange(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
         if ok:
             return a, b
     return None
+
+
+#: how far (seconds) a swap's extent may lie from the flags of its one flagged side: the flags start and end at
+#: the breaks the analysis (at a lower rate) saw, and a swap begun where the two limbs pass each other breaks
+#: little (the Bandai Namco walk's shins swapped over frames 45-51, flagged on one side over 47-51)
+EXTENT_S = 0.2
+
+
+@dataclass(frozen=True)
+class PartnerSwap:
+    """A flagged run of one side of a left/right pair judged against its partner's mirrored values
+    (:func:`partner_swaps`): ``joint`` and ``partner``, the frames ``start .. end`` (inclusive) of the exchange,
+    the flagged run ``flagged`` ``(first, last)`` of ``joint`` it was found from, and ``confirmed``: the exchange
+    joins the take at every end for both joints (a swap, exchanged back), else it only fits better than the
+    input there (a swap not confirmed: both sides left as they are)."""
+
+    joint: int
+    partner: int
+    start: int
+    end: int
+    flagged: tuple
+    confirmed: bool
+
+
+def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[float, float]:
+    """``(after, before)``: the angular acceleration (:func:`~.guard.end_roughness`) at the join of a run that
+    starts (``entry``) or ends at frame ``f`` of the track ``q`` (F, 4), with the run's values ``new`` (F, 4)
+    written from ``f`` on (entry) or up to ``f``, and as ``q`` is; 0 at the take's ends. The join reads two
+    frames on each side of it only, so each end is judged alone."""
+    from .guard import angular_acceleration
+
+    F = len(q)
+    lo, hi = (f - 2, f + 2) if entry else (f - 1, f + 3)
+    lo, hi = max(lo, 0), min(hi, F)
+    if (f == 0) if entry else (f == F - 1):
+        return 0.0, 0.0
+    inside = np.arange(lo, hi) >= f if entry else np.arange(lo, hi) <= f
+    track = np.where(inside[:, None], new[lo:hi], q[lo:hi])
+    at = [f - 1 - lo, f - lo] if entry else [f - lo, f + 1 - lo]
+    at = [i for i in at if 0 < i < hi - lo - 1]
+    return (float(angular_acceleration(track)[at].max()) if at else 0.0,
+            float(angular_acceleration(q[lo:hi])[at].max()) if at else 0.0)
+
+
+def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.ndarray, partner, fps: float,
+                  ratio: float = SWAP_JOIN_RATIO) -> list[PartnerSwap]:
+    """The flagged runs of one side of a left/right pair over which the two sides' values exchanged (each taking
+    its partner's mirrored rotation) fit the frames beside them better than the input does, with the extent of
+    the exchange: a swap detection saw on one side only.
+
+    A swap's two limbs digress by the same angle in mirrored ways (each holds the other's mirrored motion), and
+    where they pass close to each other one side's break is too small to flag: the Bandai Namco walk's shins
+    swapped over frames 45-51 were flagged on the right over 47-51 alone; repaired from neighbour words there, the
+    right knee came out at 54.5 deg (clean take 68.9) while the left kept the right one's bend (69.0, clean 27.3),
+    both knees bent at once. For each flagged run ``a .. b`` of ``joint`` (``flags`` (F, J) bool, the cells
+    still to repair) whose partner is another joint, the exchange's first frame is sought within
+    :data:`EXTENT_S` of ``a`` and its last within that of ``b`` (holding half the run at least), each where the
+    larger of the two joints' join ratios (angular acceleration at the join, exchanged against input,
+    :func:`~.guard.end_roughness`) is least. **Confirmed** where every join of both joints is under ``ratio``
+    times the input's and the exchange takes a step of more than :data:`~.guard.END_TOL_DEG` away (the swap's
+    own break: a pair held alike in a symmetric pose exchanges to the same values); **not confirmed** where each
+    joint's joins together are smoother exchanged than as they came, but not so at every end. Neither: the run
+    is no swap, and is repaired as any other. ``rotations`` (F, J, 4), ``mirrored`` (None: a rig that cannot be
+    mirrored, nothing found), ``partner``, ``ratio``: as :func:`swap_exchanges`; ``fps``: the take's rate.
+    """
+    from .guard import END_TOL_DEG
+
+    if mirrored is None:
+        return []
+    q = np.asarray(rotations, dtype=np.float64)
+    mirrored = np.asarray(mirrored, dtype=np.float64)
+    flags = np.asarray(flags, dtype=bool)
+    partner = np.asarray(partner, dtype=np.int64)
+    F = len(q)
+    W = max(2, int(round(EXTENT_S * fps)))
+    out: list[PartnerSwap] = []
+    taken = np.zeros(flags.shape, dtype=bool)
+    for j in np.flatnonzero(flags.any(axis=0)):
+        p = int(partner[j])
+        if p == j:
+            continue
+        for a, b in true_runs(flags[:, j]):
+            if a == 0 and b == F - 1 or taken[a : b + 1, j].any():
+                continue
+            n = b - a + 1
+            ends = []
+            for entry, frames in ((True, [0] if a == 0 else range(max(a - W, 1), min(a + W, a + n // 2) + 1)),
+                                  (False, [F - 1] if b == F - 1 else range(max(b - W, b - n // 2),
+                                                                           min(b + W, F - 2) + 1))):
+                got = []
+                for f in frames:
+                    joins = [_end_join(q[:, k], mirrored[:, k], f, entry) for k in (int(j), p)]
+                    worst = max((x / y if y > 0 else (0.0 if x == 0 else np.inf)) for x, y in joins)
+                    got.append((worst, f, joins))
+                ends.append(min(got, key=lambda g: g[0]))
+            (r_in, a2, j_in), (r_out, b2, j_out) = ends
+            if b2 - a2 < 1 or a2 == 0 and b2 == F - 1:
+                continue
+            gain = max(y - x for x, y in j_in + j_out)
+            better = all(x1 + x2 < y1 + y2 for (x1, y1), (x2, y2) in zip(j_in, j_out))
+            # an end where the two limbs pass each other joins alike exchanged or not: it adds no step there
+            level = [r < ratio or all(x <= y + END_TOL_DEG for x, y in joins) for r, joins in
+                     ((r_in, j_in), (r_out, j_out))]
+            confirmed = min(r_in, r_out) < ratio and all(level) and gain > END_TOL_DEG
+            if confirmed or better and gain > END_TOL_DEG:
+                out.append(PartnerSwap(int(j), p, a2, b2, (int(a), int(b)), bool(confirmed)))
+                taken[a2 : b2 + 1, [j, p]] = True
+    return out
+
+
+def exchanged_cells(rotations: np.ndarray, repaired: np.ndarray, mirrored: np.ndarray | None, partner) -> np.ndarray:
+    """(F, J) bool: the cells a repair exchanged with their left/right partner, whichever rule found the swap
+    (detection's :func:`swap_exchanges`, :func:`partner_swaps`, :func:`pair_exchange`): changed from ``rotations``
+    (F, J, 4) to ``repaired`` (F, J, 4) and equal, bit for bit, to the take's mirror image ``mirrored`` there, with
+    the partner's cell in the same frame likewise. A record flags them as a swap on both joints, so a person
+    accepts or rejects the two sides together (:mod:`mocapkit.cleaning.ties`). None ``mirrored``: none."""
+    q = np.asarray(rotations)
+    out = np.zeros(q.shape[:2], dtype=bool)
+    if mirrored is None:
+        return out
+    partner = np.asarray(partner, dtype=np.int64)
+    new = np.asarray(repaired)
+    out = np.any(new != q, axis=-1) & np.all(new == np.asarray(mirrored), axis=-1)
+    return out & out[:, partner] & (partner != np.arange(len(partner)))[None, :]
