@@ -93,3 +93,20 @@ def test_a_swap_flagged_on_one_side_over_part_of_it_is_found_whole():
     off[47:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, 0.5])), off[47:52, right])
     off_take = dataclasses.replace(take, rotations=off)
     assert partner_swaps(off, mirrored_rotations(off_take), flags, mirror_pairs(take.skeleton.joint_names), 30.0) == []
+
+
+def test_flags_left_past_a_swap_put_back_are_no_swap_of_their_own():
+    """Detection's swap exchanged back, the flags one side keeps past its end are judged against the take as put
+    back: no exchange of the clean frames after it (HDM05 mm kickLFront1Reps, ``real_errors`` seed 2001: the
+    right shin's flags 64-67 past the swap 42-63, judged against the input's swapped frames, joined an exchange
+    of the clean frames 64-77, 31 deg off)."""
+    from mocapkit.cleaning.ssa.swap_exchange import partner_swaps
+    from mocapkit.motion import mirror_pairs
+
+    take, bad, (left, right) = _knees_swapped(45, 51)
+    pairs = mirror_pairs(take.skeleton.joint_names)
+    flags = np.zeros(bad.rotations.shape[:2], dtype=bool)
+    flags[52:56, right] = True
+    fixed = np.zeros_like(flags)
+    fixed[45:52, [left, right]] = True  # exchanged back: the take's own values there
+    assert partner_swaps(take.rotations, mirrored_rotations(bad), flags, pairs, 30.0, fixed=fixed) == []

@@ -175,7 +175,7 @@ def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[floa
 
 
 def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.ndarray, partner, fps: float,
-                  ratio: float = SWAP_JOIN_RATIO) -> list[PartnerSwap]:
+                  ratio: float = SWAP_JOIN_RATIO, fixed: np.ndarray | None = None) -> list[PartnerSwap]:
     """The flagged runs of one side of a left/right pair over which the two sides' values exchanged (each taking
     its partner's mirrored rotation) fit the frames beside them better than the input does, with the extent of
     the exchange: a swap detection saw on one side only.
@@ -185,15 +185,23 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
     swapped over frames 45-51 were flagged on the right over 47-51 alone; repaired from neighbour words there, the
     right knee came out at 54.5 deg (clean take 68.9) while the left kept the right one's bend (69.0, clean 27.3),
     both knees bent at once. For each flagged run ``a .. b`` of ``joint`` (``flags`` (F, J) bool, the cells
-    still to repair) whose partner is another joint, the exchange's first frame is sought within
-    :data:`EXTENT_S` of ``a`` and its last within that of ``b`` (holding half the run at least), each where the
-    larger of the two joints' join ratios (angular acceleration at the join, exchanged against input,
-    :func:`~.guard.end_roughness`) is least. **Confirmed** where every join of both joints is under ``ratio``
+    still to repair) whose partner is another joint flagged nowhere in ``a .. b`` (a pair flagged over the same
+    frames is detection's swap, :func:`swap_exchanges`, or the guard's, :func:`pair_exchange`), the exchange's
+    first frame is sought within :data:`EXTENT_S` of ``a`` and its last within that of ``b`` (holding half the
+    run at least): the frame nearest the flags' where the larger of the two joints' join ratios (angular
+    acceleration at the join, exchanged against input, :func:`~.guard.end_roughness`) is under ``ratio``, else
+    where it is least (at 120 fps the least one lay 15 frames past a swap's end on HDM05 mm grabHighR,
+    exchanging clean frames). **Confirmed** where every join of both joints is under ``ratio``
     times the input's and the exchange takes a step of more than :data:`~.guard.END_TOL_DEG` away (the swap's
     own break: a pair held alike in a symmetric pose exchanges to the same values); **not confirmed** where each
     joint's joins together are smoother exchanged than as they came, but not so at every end. Neither: the run
-    is no swap, and is repaired as any other. ``rotations`` (F, J, 4), ``mirrored`` (None: a rig that cannot be
-    mirrored, nothing found), ``partner``, ``ratio``: as :func:`swap_exchanges`; ``fps``: the take's rate.
+    is no swap, and is repaired as any other. ``rotations`` (F, J, 4): the take with what the repair already put
+    back by its own motion (detection's swaps exchanged, offsets taken away), whose cells ``fixed`` (F, J) bool
+    (None: none) no exchange reaches: the flags a swap detection found left past its end are no swap of their
+    own (HDM05 mm kickLFront1Reps with ``real_errors`` seed 2001: the shins' swap 42-63 exchanged back, the right
+    one's flags 64-67 beyond it, judged against the input's swapped frames, joined an exchange of the clean
+    frames 64-77). ``mirrored`` (the input's mirror image; None: a rig that cannot be mirrored, nothing found),
+    ``partner``, ``ratio``: as :func:`swap_exchanges`; ``fps``: the take's rate.
     """
     from .guard import END_TOL_DEG
 
@@ -204,6 +212,7 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
     flags = np.asarray(flags, dtype=bool)
     partner = np.asarray(partner, dtype=np.int64)
     F = len(q)
+    fixed = np.zeros(flags.shape, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool)
     W = max(2, int(round(EXTENT_S * fps)))
     out: list[PartnerSwap] = []
     taken = np.zeros(flags.shape, dtype=bool)
@@ -212,8 +221,9 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
         if p == j:
             continue
         for a, b in true_runs(flags[:, j]):
-            if a == 0 and b == F - 1 or taken[a : b + 1, j].any():
-                continue
+            if a == 0 and b == F - 1 or taken[a : b + 1, j].any() or flags[a : b + 1, p].any() \
+                    or fixed[a : b + 1, p].any():
+                continue  # a pair flagged over the same frames: detection's swap, or the guard's (pair_exchange)
             n = b - a + 1
             ends = []
             for entry, frames in ((True, [0] if a == 0 else range(max(a - W, 1), min(a + W, a + n // 2) + 1)),
@@ -221,10 +231,19 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
                                                                            min(b + W, F - 2) + 1))):
                 got = []
                 for f in frames:
+                    lo, hi = (min(f, a), max(f, a)) if entry else (min(f, b), max(f, b))
+                    if fixed[lo : hi + 1, [j, p]].any():
+                        continue
                     joins = [_end_join(q[:, k], mirrored[:, k], f, entry) for k in (int(j), p)]
                     worst = max((x / y if y > 0 else (0.0 if x == 0 else np.inf)) for x, y in joins)
                     got.append((worst, f, joins))
-                ends.append(min(got, key=lambda g: g[0]))
+                # the join nearest the flags' end that passes; else the one that comes closest to passing
+                near = [g for g in got if g[0] < ratio]
+                if got:
+                    ends.append(min(near, key=lambda g: (abs(g[1] - (a if entry else b)), g[0])) if near else
+                                min(got, key=lambda g: g[0]))
+            if len(ends) < 2:
+                continue
             (r_in, a2, j_in), (r_out, b2, j_out) = ends
             if b2 - a2 < 1 or a2 == 0 and b2 == F - 1:
                 continue
