@@ -34,6 +34,7 @@ Collections (tune: the rules may be chosen on them; check: judge there, never tu
 
 from __future__ import annotations
 
+import os
 import sys
 from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
@@ -47,7 +48,8 @@ sys.path.insert(0, str(REPO / "benchmarks"))
 
 import _harness as harness  # noqa: E402
 
-DATA = REPO.parent / "shared" / "data"
+# the real data beside the repository; $MOCAPKIT_SHARED_DATA for a checkout elsewhere (a git worktree), as _corpus
+DATA = Path(os.environ.get("MOCAPKIT_SHARED_DATA", REPO.parent / "shared" / "data"))
 COLLECTIONS = ("cmu", "hdm05", "hdm05_mm", "bandai")
 CHECK = ("hdm05_mm", "bandai")
 WORSE_DEG = 1.0
