@@ -88,6 +88,13 @@ def test_a_swap_flagged_on_one_side_over_part_of_it_is_found_whole():
     assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in found] == [(right, left, 45, 51, True)]
     clean = partner_swaps(take.rotations, mirrored_rotations(take), flags, mirror_pairs(take.skeleton.joint_names), 30.0)
     assert clean == []
+    # the right shin turned 14 deg more over 49-51 as well: the exchange fits better, but not at its exit (both left)
+    q = np.array(bad.rotations)
+    q[49:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, np.radians(14.0)])),
+                                            q[49:52, right])
+    more = partner_swaps(q, mirrored_rotations(dataclasses.replace(bad, rotations=q)), flags,
+                         mirror_pairs(take.skeleton.joint_names), 30.0)
+    assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in more] == [(right, left, 45, 51, False)]
     # one knee bent away from the take alone (an offset, its partner as captured): no swap
     off = np.array(take.rotations)
     off[47:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, 0.5])), off[47:52, right])
@@ -110,3 +117,26 @@ def test_flags_left_past_a_swap_put_back_are_no_swap_of_their_own():
     fixed = np.zeros_like(flags)
     fixed[45:52, [left, right]] = True  # exchanged back: the take's own values there
     assert partner_swaps(take.rotations, mirrored_rotations(bad), flags, pairs, 30.0, fixed=fixed) == []
+
+
+def test_a_shin_swap_detection_flags_on_one_side_is_exchanged_back_or_left_whole():
+    """The bundled walk with its shins swapped over 45-51: detection flags the right one over 49-51 only, no swap.
+    Exchanged back on both over the swap's own frames: the clean take's values. With the right shin 14 deg off as
+    well over 49-51 (the exchange not joining at its exit), neither side is repaired from neighbour words, which
+    would leave the left holding the right one's motion: both left as they came, named."""
+    from mocapkit.cleaning.whole_take import take_params
+
+    take, bad, (left, right) = _knees_swapped(45, 51)
+    det = detect_take(bad, None, params=take_params()).detection
+    assert not det.flags[:, left].any() and det.flags[49:52, right].all() and not det.swaps.any()
+    out, _ = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    off = np.degrees(R.geodesic_angle(out.rotations[:, [left, right]], take.rotations[:, [left, right]]))
+    assert off.max() < 1e-6  # the mirror of the mirror: the clean take's values to rounding
+    q = np.array(bad.rotations)
+    q[49:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, np.radians(14.0)])),
+                                            q[49:52, right])
+    worse = dataclasses.replace(bad, rotations=q)
+    det = detect_take(worse, None, params=take_params()).detection
+    out, runs = ssa.repair_with_left(worse, det, None, foot_skate=False)
+    assert np.array_equal(out.rotations[:, [left, right]], q[:, [left, right]])
+    assert any(r.joint == "LowerLeg_R" and "a swap not confirmed" in r.reason for r in runs)
