@@ -178,8 +178,9 @@ def max_fill_error_option(batch: bool = False):
     who = "Marker captures" if batch else "A marker capture"
     return typer.Option(
         None, "--max-fill-error", metavar="MM", min=0.0,
-        help=f"{who}: a fill expected to be off by more than MM millimetres (its error where the marker is "
-             "seen) is left missing (default: the marker's distance to its nearest marker, at least 50 mm)."
+        help=f"{who}: a fill expected to be off by more than MM millimetres (its error on stretches like the gap "
+             "where the marker is seen), or whose error is unknown (unvalidated), is left missing (default: the "
+             "marker's distance to its nearest marker, at least 50 mm; unvalidated fills written)."
              + (" Joint-angle takes ignore this and --max-gap." if batch else ""))
 
 

@@ -418,7 +418,7 @@ def _info_of_own_file(path: Path) -> bool:
             console.print(f"  {line}")
         return True
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
-        from ..cleaning.markers.clean import left_too_long
+        from ..cleaning.markers.clean import left_too_long, unvalidated
         from ..cleaning.markers.counts import KINDS, sample_counts
         from ..cleaning.markers.record import read_marker_record
         from ..cleaning.pipeline import CleanResult
@@ -439,7 +439,10 @@ def _info_of_own_file(path: Path) -> bool:
                 ("changed", f"{plural(counts['changed'], 'marker sample')} ("
                             + ", ".join(f"{what} {counts[key]}" for k, (key, what) in enumerate(KINDS)
                                         if k < 3 or counts[key]) + ")"),
-                ("fixes", f"{plural(rec.count('gap'), 'gap')} filled, {plural(rec.count('spike'), 'spike')} removed, "
+                ("fixes", f"{plural(rec.count('gap'), 'gap')} filled"
+                          + (f" ({unvalidated(rec.fixes)} of them unvalidated: expected error unknown)"
+                             if unvalidated(rec.fixes) else "")
+                          + f", {plural(rec.count('spike'), 'spike')} removed, "
                           f"{plural(rec.count('swap'), 'label swap')} undone"
                           + (f", {plural(rec.count('duplicate'), 'duplicate label')} removed" if rec.count('duplicate') else "")
                           + (f", {plural(rec.count('foreign'), 'foreign stretch', 'foreign stretches')} removed"

@@ -49,7 +49,7 @@ from .rigid import distance_stats
 from .spikes import longest_spike, spike_mask
 from .swaps import undo_swaps
 
-__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS", "why_left", "left_too_long"]
+__all__ = ["MarkerFix", "MarkerCleanResult", "clean_markers", "STEPS", "why_left", "left_too_long", "unvalidated"]
 
 STEPS = ("swaps", "duplicates", "spikes", "gaps")
 
@@ -97,6 +97,9 @@ class MarkerFix:
     prediction of :mod:`~mocapkit.cleaning.markers.edges`, the test that finds a spike beside a gap; the nearer
     side where both are seen): how far off its path the marker jumped; NaN where neither side has two seen
     samples, or from a record written before 0.17.0.
+    ``fill_basis``: how a fill's ``expected_mm`` was widened beyond its stretches' RMS error (its models part
+    further in the gap than on the stretches; few or short stretches: :mod:`~mocapkit.cleaning.markers.fill_error`),
+    in words; "" where it was not, or from a record written before 0.18.0.
     """
 
     marker: str
@@ -116,6 +119,7 @@ class MarkerFix:
     order: int = 0
     left: str = ""
     miss_mm: float = float("nan")
+    fill_basis: str = ""
 
     @property
     def fill_text(self) -> str:
@@ -125,8 +129,8 @@ class MarkerFix:
         how = self.method + (f" ({self.donors})" if self.donors else "")
         if self.models > 1:
             how = f"average of {self.models} fills, the best {how}"
-        doubt = (f"expected error {self.expected_mm:.1f} mm" if np.isfinite(self.expected_mm)
-                 else "expected error unknown (no seen stretch to validate on)")
+        doubt = (f"expected error {self.expected_mm:.1f} mm" + (f" ({self.fill_basis})" if self.fill_basis else "")
+                 if np.isfinite(self.expected_mm) else "expected error unknown (no seen stretch to validate on)")
         return f"{self.seconds:.2f} s, {how}, {doubt}" + (f" ({self.fill_note})" if self.fill_note else "")
 
     @property
@@ -181,6 +185,21 @@ class MarkerFix:
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
         text = what.format(f"{self.size_mm:.1f}")
         return f"{self.fill_text}; {text}" if self.kind == "gap" else text
+
+
+def unvalidated(fixes) -> int:
+    """How many of ``fixes`` (:class:`MarkerFix`, or a record's dicts of their fields) are gaps filled with no
+    expected error: no stretch of the marker's seen data to validate the fill on. Such a fill is written
+    unchecked by the default limit, counted apart by a cleaning's summary and ``mocapkit info``, and refused
+    by a limit a user gives (``--max-fill-error``, ``max_error_mm=``)."""
+    out = 0
+    for x in fixes:
+        get = x.get if isinstance(x, dict) else lambda name, default: getattr(x, name, default)
+        expected = get("expected_mm", float("nan"))
+        if get("kind", "") == "gap" and get("method", "") and not np.isfinite(float(np.nan if expected is None
+                                                                                      else expected)):
+            out += 1
+    return out
 
 
 def why_left(fix) -> str:
@@ -330,7 +349,9 @@ class MarkerCleanResult:
         unchanged) of what it would do: "would fill 23 gaps (425 samples)", not "23 gaps filled", which read as
         done on a capture whose samples are the input's."""
         counts = {k: sum(1 for x in self.fixes if x.kind == k) for k in ("gap", "spike", "swap")}
-        sizes = [plural(counts["gap"], "gap"), plural(int(self.filled.sum()), "sample"),
+        blind = unvalidated(self.fixes)
+        sizes = [plural(counts["gap"], "gap"), plural(int(self.filled.sum()), "sample")
+                 + (f"; {blind} of them unvalidated: expected error unknown" if blind else ""),
                  plural(counts["spike"], "spike"), plural(int(self.spikes.sum()), "sample"),
                  plural(counts["swap"], "label swap"), plural(int(self.swapped.sum()), "sample")]
         lines = [("would fill {} ({}), remove {} ({}), undo {} ({})" if would else
@@ -545,7 +566,9 @@ def clean_markers(markers, *, steps=STEPS, spike_mm: float = 15.0, swap_mm: floa
         Gaps longer than this are left missing.
     max_error_mm : float, optional
         A fill whose expected error (its RMS error on stretches of the same
-        length cut where the marker is seen) is larger than this, in mm, is
+        length cut where the marker is seen, widened where those resemble
+        the gap poorly: :mod:`~mocapkit.cleaning.markers.fill_error`) is
+        larger than this, in mm, or unknown (no stretch to validate on), is
         not written: the gap is left missing and named in ``unfilled``.
         Default: each marker's distance to its nearest marker (at least 50
         mm: :func:`~mocapkit.cleaning.markers.gaps.error_limits`); ``inf``
@@ -656,7 +679,7 @@ def _clean_markers(markers, steps, spike_mm, swap_mm, max_gap_s, constrain, max_
                 continue
             how = dict(seconds=(r.end - r.start) / markers.fps, method=r.method,
                        donors=", ".join(labels[d] for d in r.donors), expected_mm=r.expected_error * unit_mm,
-                       models=r.models, fill_note=r.note)
+                       models=r.models, fill_note=r.note, fill_basis=r.basis)
             if not r.filled:  # no plausible fill: left missing, and said so (a spike run's samples removed: a change)
                 why = f"{TOO_LONG} ({max_gap_s:g} s)" if r.implausible.startswith(TOO_LONG) else r.implausible
                 left_fix = MarkerFix(labels[r.marker], r.start, r.end, "spike" if is_spike else "gap", float("nan"),

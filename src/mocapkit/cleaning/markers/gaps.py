@@ -70,6 +70,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from .constraints import enforce_distances
+from .fill_error import SPANS, expected_error
 from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
@@ -107,8 +108,12 @@ class GapFill:
     donors : tuple of int
         The donors of the best model (empty for the room and low-rank fills).
     expected_error : float
-        RMS error of the fill on the validation gaps cut into the marker's
-        observed data, in the capture's unit (NaN when there were none).
+        The fill's expected RMS error, in the capture's unit: its error on
+        stretches of the gap's length cut where the marker is seen, with the
+        gap's other hidden markers hidden there too, widened where the gap's
+        frames are harder or the stretches few or short
+        (:mod:`~mocapkit.cleaning.markers.fill_error`); NaN when no stretch
+        could be cut (an unvalidated fill).
     constrained : bool
         Whether the soft distance constraints were applied to the gap (they
         brought the validation gaps nearer the truth).
@@ -125,6 +130,10 @@ class GapFill:
         Why the fill had no donor group although markers were seen
         throughout the gap: too few of them rigid enough to be donors
         (:func:`donors_allowed`); empty otherwise.
+    basis : str
+        How ``expected_error`` was widened beyond its stretches' figure (a
+        harder gap, thin evidence: :func:`~mocapkit.cleaning.markers.fill_error.expected_error`),
+        in words; empty where it was not.
     """
 
     marker: int
@@ -137,6 +146,7 @@ class GapFill:
     implausible: str = ""
     models: int = 1
     note: str = ""
+    basis: str = ""
 
     @property
     def filled(self) -> bool:
@@ -481,7 +491,8 @@ def _lowrank_fill(pos: np.ndarray, m: int, a: int, b: int, order: np.ndarray, st
 def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, candidates: int = 4, keep: int = 3,
               max_gap: int | None = None, constrain: bool = True, predictors: int = 6, guard: bool = True,
               unit_mm: float = 1.0, smooth: float = SMOOTH_FRAMES, subjects=None,
-              markers=None, max_error=None, first_frame: int = 0, progress=None) -> tuple[np.ndarray, list[GapFill]]:
+              markers=None, max_error=None, first_frame: int = 0, progress=None,
+              strict: bool | None = None) -> tuple[np.ndarray, list[GapFill]]:
     """Fill every gap of every marker that is seen at least once, except where none of its subject's markers is.
 
     Parameters
@@ -530,6 +541,15 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         larger than this, in the capture's unit, is not written: the gap is
         left missing and its record says so. Default: :func:`error_limits`
         (each marker's distance to its nearest marker); ``inf``: no limit.
+    strict : bool, optional
+        Whether ``max_error`` is a limit the user gave: it is checked on the
+        expected error, and an unvalidated fill (expected error unknown: no
+        stretch to measure it on) fails a finite one (a limit cannot be
+        checked on an unknown; ``inf`` still writes it). Default: True where
+        ``max_error`` is given. False (the default limits) checks the limit
+        on the fill's error on the two stretches that rank the models, as
+        before 0.18.0, and writes unvalidated fills (counted apart by the
+        summary): a take cleaned without a limit is written as it was.
     first_frame : int
         The frame number of ``positions``' first frame in the take it is part
         of: the frames a record's ``implausible`` names count from it.
@@ -552,13 +572,14 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
     BLAS runs on one thread (as in :func:`~mocapkit.cleaning.markers.clean.clean_markers`):
     the low-rank fills' SVDs run many times faster so on a busy machine, to the same bits.
     """
+    strict = max_error is not None if strict is None else bool(strict)
     with threadpool_limits(1, user_api="blas"):
         return _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth,
-                          subjects, markers, max_error, first_frame, progress)
+                          subjects, markers, max_error, first_frame, progress, strict)
 
 
 def _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictors, guard, unit_mm, smooth, subjects,
-               markers, max_error, first_frame, progress) -> tuple[np.ndarray, list[GapFill]]:
+               markers, max_error, first_frame, progress, strict) -> tuple[np.ndarray, list[GapFill]]:
     """:func:`fill_gaps`' work, on one BLAS thread."""
     pos = np.array(positions, dtype=np.float64)
     f, m_count = pos.shape[:2]
@@ -587,7 +608,7 @@ def _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictor
                                              max_gap=max_gap, constrain=constrain, predictors=predictors, guard=guard,
                                              unit_mm=unit_mm, smooth=smooth, subjects=names, markers=mine,
                                              max_error=error_limits(stats, unit_mm) if max_error is None else max_error,
-                                             first_frame=first_frame + lo, progress=progress)
+                                             first_frame=first_frame + lo, progress=progress, strict=strict)
             out[lo:hi, mine] = inner[:, mine]
             records += [replace(r, start=r.start + lo, end=r.end + lo) for r in inner_records]
     if not todo.any():
@@ -608,7 +629,7 @@ def _fill_gaps(positions, stats, candidates, keep, max_gap, constrain, predictor
                     progress(1, 0)
                 continue
             rec = _fill_one(pos, out, int(m), a, b, order, stats, candidates, keep, predictors, constrain,
-                            limits, unit_mm, smooth, float(worst[m]), first_frame)
+                            limits, unit_mm, smooth, float(worst[m]), first_frame, strict)
             if rec is not None:
                 records.append(rec)
             if progress is not None:
@@ -671,7 +692,7 @@ def _constraint_helps(pos: np.ndarray, m: int, checks, stats: DistanceStats, ord
 
 def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, constrain,
               limits: TakeLimits | None = None, unit_mm: float = 1.0, smooth: float = 0.0,
-              max_error: float = np.inf, first_frame: int = 0) -> GapFill | None:
+              max_error: float = np.inf, first_frame: int = 0, strict: bool = False) -> GapFill | None:
     """Fill marker m's gap a..b-1 of ``pos`` into ``out``; its record, or None when nothing could fill it.
 
     The fills tried, in turn: the weighted average of the ``keep`` best
@@ -679,8 +700,12 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     (unvalidated ones last), then the low-rank fill and the room-coordinate
     interpolation. With ``limits`` the first that passes the plausibility
     guard, and whose expected error is at most ``max_error`` (unit of
-    ``pos``), is written; when none does, nothing is written and the record
-    says why the first failed (``implausible``).
+    ``pos``; with ``strict`` an unknown expected error fails it too), is
+    written; when none does, nothing is written and the record says why the
+    first failed (``implausible``). The expected error of each fill tried is
+    measured on stretches resembling the gap
+    (:func:`~mocapkit.cleaning.markers.fill_error.expected_error`); the
+    models are ranked and weighted on the two stretches next to it.
     """
     f = pos.shape[0]
     rigid = donors_allowed(stats, m, unit_mm)
@@ -729,6 +754,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         averaged = len(best)
         alone = sorted(usable, key=lambda i: errs[i])  # stable: unvalidated (inf) ones last, in model order
         tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
+        recipes = [(best, w)] + [([i], np.ones(1)) for i in alone]
         tries = [(est, _method(models[i]), models[i][0], float(errs[i]) if np.isfinite(errs[i]) else float("nan"), v)
                  for est, i, v in tries]
         if validated and len(best) > 1:  # the average's own error on the validation gaps, not its best model's
@@ -746,16 +772,31 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     if not tries:
         return None
     first = None
-    for k, (est, method, donors, expected, validated) in enumerate(tries):
+    wide = _validation_spans(pos, m, a, b, SPANS) if usable else []
+    for k, (est, method, donors, ranked, validated) in enumerate(tries):
         if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
             continue  # the average of one model is that model: tried already
+        expected, basis = ranked, ""
+        if usable and np.isfinite(ranked):  # measured on stretches that resemble the gap (fill_error)
+            chosen, weights = recipes[k]
+            # the ranking's stretches are filled already: only a low-rank fill sees the gap's other hidden markers
+            known = ({} if any(models[i][1] == "lowrank" for i in chosen) else
+                     {span: [c[i] for i in chosen] for span, c in zip(spans, checks)})
+            expected, basis = expected_error(pos, m, a, b, wide, [fills[i] for i in chosen], weights,
+                                             _recipe(m, [models[i] for i in chosen], order, stats, side, known))
         why = ""
-        if np.isfinite(expected) and expected > max_error:
-            why = (f"expected error {expected * unit_mm:.0f} mm, over the {max_error * unit_mm:.0f} mm a fill may be "
-                   "off (the distance to its nearest marker; --max-fill-error, max_error_mm= in Python)")
+        # a limit given is checked on the expected error (an unknown one fails it); the default limits, on the
+        # ranking stretches' error, as before 0.18.0: a take cleaned without a limit is written as it was
+        judged = expected if strict else ranked
+        if (np.isfinite(judged) or (strict and np.isfinite(max_error))) and not judged <= max_error:
+            said = (f"expected error {judged * unit_mm:.0f} mm, over" if np.isfinite(judged) else
+                    "expected error unknown (no seen stretch to validate on), so not within")
+            whose = ("the limit given: --max-fill-error, max_error_mm= in Python" if strict else
+                     "the distance to its nearest marker; --max-fill-error, max_error_mm= in Python")
+            why = f"{said} the {max_error * unit_mm:.0f} mm a fill may be off ({whose})"
         elif limits is not None:
             why = implausible(pos, m, a, b, est, limits, unit_mm, first_frame)
-        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1, note)
+        rec = GapFill(m, a, b, method, tuple(donors), expected, False, why, averaged if k == 0 else 1, note, basis)
         first = first or rec
         if why:
             continue
@@ -763,6 +804,14 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         helps = constrain and validated is not None and _constraint_helps(pos, m, validated, stats, order, smooth)
         return replace(rec, constrained=bool(helps))
     return first
+
+
+def _recipe(m: int, models, order: np.ndarray, stats: DistanceStats, side: int, known=None):
+    """The written fill's recipe as a function ``(pos, s, e)`` -> each of ``models``' fills of marker m's frames
+    s..e-1 (None where one cannot fill them), as the gap's were made (``side``: from one end). ``known``:
+    {(s, e): those fills} already made (the ranking's stretches, where the gap's hidden markers change none)."""
+    known = known or {}
+    return lambda pos, s, e: known[(s, e)] if (s, e) in known else _fills(pos, m, s, e, models, order, stats, side)
 
 
 def _method(model) -> str:
