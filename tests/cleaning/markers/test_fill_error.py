@@ -90,3 +90,21 @@ def test_transplant_and_thin_evidence():
     one = np.zeros((4, 3))
     assert disagreement([one, None], [1.0, 1.0]) == 0.0
     assert disagreement([one, one + [3.0, 4.0, 0.0]], [1.0, 1.0]) == pytest.approx(2.5)
+
+
+def test_a_fast_wrist_with_its_neighbours_hidden_is_not_called_a_good_fill(shared_data):
+    # trial T3 finding 2: HDM05 with `corrupt --kind gaps --seed 3`: RWRB 3638-3669, RWRA and RELB hidden too, the
+    # arm turning. Its fill is 55 mm RMS off the truth; it claimed 5.6 mm, and --max-fill-error 20 wrote it
+    from mocapkit.corrupt import corrupt
+    from mocapkit.io import load_markers
+
+    take = load_markers(shared_data / "c3d_markers_recovery" / "HDM_bd_05-01_01_120.c3d")
+    gapped, _ = corrupt(take, "gaps", seed=3)
+    pos = np.asarray(gapped.positions, dtype=np.float64)[3000:4300]  # the gap with 5 s either side
+    wrist = list(gapped.labels).index("Bastian:RWRB")
+    _, records = fill_gaps(pos, markers=[wrist])
+    (fill,) = [r for r in records if r.start == 638]
+    assert fill.filled and fill.expected_error > 30.0 and "models part" in fill.basis
+    _, records = fill_gaps(pos, markers=[wrist], max_error=20.0)  # no model alone passes for a good fill either
+    (fill,) = [r for r in records if r.start == 638]
+    assert not fill.filled and "over the 20 mm" in fill.implausible

@@ -23,7 +23,7 @@ that it resembles the gap:
   on the stretches (:func:`disagreement`): each model filled the stretches
   well, yet where they disagree by centimetres in the gap the gap holds
   motion the stretches do not (RWRB above: the models part 3 to 87 mm off
-  the truth; the estimate becomes 54 mm). Never narrowed: a gap where they
+  the truth; the estimate becomes 49 mm). Never narrowed: a gap where they
   agree keeps its stretches' figure;
 - widened where the evidence is thin (:func:`thin_factor`): fewer stretches
   than :data:`SPANS`, or stretches shorter than the gap.
@@ -147,7 +147,7 @@ def thin_factor(spans, length: int, wanted: int = SPANS) -> float:
 
 
 def expected_error(pos: np.ndarray, m: int, a: int, b: int, spans, fills, weights,
-                   fill: Callable) -> tuple[float, str]:
+                   fill: Callable, least_ratio: float = 1.0) -> tuple[float, str, float]:
     """The expected RMS error of marker m's fill of a..b-1, and how it was widened, in words.
 
     ``spans``: stretches of the gap's length (or shorter) where m is seen;
@@ -159,14 +159,18 @@ def expected_error(pos: np.ndarray, m: int, a: int, b: int, spans, fills, weight
     taken (on trial T3's long one-ended gaps of 85_02 the larger alone
     still fell short of LHEE's real error). NaN and "" where no stretch
     could be filled: the fill is unvalidated.
+    ``least_ratio``: the disagreement ratio to take at least (a single
+    model tried after the average failed has no other model to part from:
+    it gets the average's). Returns (expected error, words, the ratio used).
     """
     errs = span_errors(pos, m, a, b, spans, weights, fill)
     if not errs:
-        return float("nan"), ""
+        return float("nan"), "", least_ratio
     used = [(s, e) for s, e, _, _ in errs]
     base = float(np.sqrt(np.mean([x ** 2 for _, _, x, _ in errs])))
     calm = float(np.sqrt(np.mean([x ** 2 for _, _, _, x in errs])))
     ratio = max(1.0, disagreement(fills, weights) / max(calm, 1e-9 * max(base, 1e-300))) if calm > 0 else 1.0
+    ratio = max(ratio, least_ratio)
     thin = thin_factor(used, b - a)
     words = []
     if ratio > 1.0:
@@ -174,4 +178,4 @@ def expected_error(pos: np.ndarray, m: int, a: int, b: int, spans, fills, weight
     if thin > 1.0:
         words.append(f"x{thin:.1f}: {len(used)} stretch{'es' if len(used) != 1 else ''} "
                      f"of {int(np.mean([e - s for s, e in used]))} frames to measure on")
-    return base * ratio * thin, "; ".join(words)
+    return base * ratio * thin, "; ".join(words), ratio

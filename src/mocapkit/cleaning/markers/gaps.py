@@ -542,14 +542,12 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         left missing and its record says so. Default: :func:`error_limits`
         (each marker's distance to its nearest marker); ``inf``: no limit.
     strict : bool, optional
-        Whether ``max_error`` is a limit the user gave: it is checked on the
-        expected error, and an unvalidated fill (expected error unknown: no
-        stretch to measure it on) fails a finite one (a limit cannot be
-        checked on an unknown; ``inf`` still writes it). Default: True where
-        ``max_error`` is given. False (the default limits) checks the limit
-        on the fill's error on the two stretches that rank the models, as
-        before 0.18.0, and writes unvalidated fills (counted apart by the
-        summary): a take cleaned without a limit is written as it was.
+        Whether ``max_error`` is a limit the user gave: an unvalidated fill
+        (expected error unknown: no stretch to measure it on) then fails a
+        finite one (a limit cannot be checked on an unknown; ``inf`` still
+        writes it). Default: True where ``max_error`` is given; False (the
+        default limits) writes unvalidated fills, as before, and the
+        summary counts them apart.
     first_frame : int
         The frame number of ``positions``' first frame in the take it is part
         of: the frames a record's ``implausible`` names count from it.
@@ -773,6 +771,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
         return None
     first = None
     wide = _validation_spans(pos, m, a, b, SPANS) if usable else []
+    parted = 1.0  # how much further the average's models part in the gap: a single model tried next keeps it
     for k, (est, method, donors, ranked, validated) in enumerate(tries):
         if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
             continue  # the average of one model is that model: tried already
@@ -782,14 +781,13 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
             # the ranking's stretches are filled already: only a low-rank fill sees the gap's other hidden markers
             known = ({} if any(models[i][1] == "lowrank" for i in chosen) else
                      {span: [c[i] for i in chosen] for span, c in zip(spans, checks)})
-            expected, basis = expected_error(pos, m, a, b, wide, [fills[i] for i in chosen], weights,
-                                             _recipe(m, [models[i] for i in chosen], order, stats, side, known))
+            expected, basis, parted = expected_error(pos, m, a, b, wide, [fills[i] for i in chosen], weights,
+                                                     _recipe(m, [models[i] for i in chosen], order, stats, side,
+                                                             known), parted)
         why = ""
-        # a limit given is checked on the expected error (an unknown one fails it); the default limits, on the
-        # ranking stretches' error, as before 0.18.0: a take cleaned without a limit is written as it was
-        judged = expected if strict else ranked
-        if (np.isfinite(judged) or (strict and np.isfinite(max_error))) and not judged <= max_error:
-            said = (f"expected error {judged * unit_mm:.0f} mm, over" if np.isfinite(judged) else
+        # checked on the expected error; an unknown one fails a limit the user gave (strict), not the default
+        if (np.isfinite(expected) or (strict and np.isfinite(max_error))) and not expected <= max_error:
+            said = (f"expected error {expected * unit_mm:.0f} mm, over" if np.isfinite(expected) else
                     "expected error unknown (no seen stretch to validate on), so not within")
             whose = ("the limit given: --max-fill-error, max_error_mm= in Python" if strict else
                      "the distance to its nearest marker; --max-fill-error, max_error_mm= in Python")
