@@ -325,11 +325,13 @@ def test_fills_expected_to_be_off_by_more_than_the_marker_spacing_are_left_missi
     heel = [x for x in res.unfilled if x.marker == "r heel" and x.start == 239]
     assert len(heel) == 1 and "at frame 0 " not in heel[0].note  # frames named in the take's numbers
     assert np.all(np.isnan(np.asarray(res.markers.positions)[239:295, ms.labels.index("r heel")]))
+    # the default limit is checked on the error on the stretches that rank the models (the expected error shown is
+    # that, widened where those stretches resemble the gap poorly: cleaning.markers.fill_error)
     over = [x for x in res.unfilled if "over the" in x.note]
-    assert over and all(f"expected error {x.expected_mm:.0f} mm" in x.note for x in over)
+    assert over and all("mm on the stretches next to the gap, over the" in x.note for x in over)
     limit = error_limits(distance_stats(np.asarray(ms.positions)))  # mm: BTS is in mm
     gaps = [x for x in res.fixes if x.kind == "gap"]
-    assert gaps and all(x.expected_mm <= limit[ms.labels.index(x.marker)] + 1e-9 for x in gaps
+    assert gaps and all(x.expected_mm <= limit[ms.labels.index(x.marker)] + 1e-9 or x.fill_basis for x in gaps
                         if np.isfinite(x.expected_mm))
     one = [x for x in gaps if x.start == 239]  # a gap from the frame the walker comes in: one seen end
     assert one and all(x.ends == 1 and "extrapolated from its one seen end" in x.size_text for x in one)

@@ -542,12 +542,14 @@ def fill_gaps(positions: np.ndarray, *, stats: DistanceStats | None = None, cand
         left missing and its record says so. Default: :func:`error_limits`
         (each marker's distance to its nearest marker); ``inf``: no limit.
     strict : bool, optional
-        Whether ``max_error`` is a limit the user gave: an unvalidated fill
-        (expected error unknown: no stretch to measure it on) then fails a
-        finite one (a limit cannot be checked on an unknown; ``inf`` still
-        writes it). Default: True where ``max_error`` is given; False (the
-        default limits) writes unvalidated fills, as before, and the
-        summary counts them apart.
+        Whether ``max_error`` is a limit the user gave: it is checked on the
+        expected error, and an unvalidated fill (expected error unknown: no
+        stretch to measure it on) fails a finite one (a limit cannot be
+        checked on an unknown; ``inf`` still writes it). Default: True where
+        ``max_error`` is given. False (the default limits) checks the limit
+        on the fill's error on the two stretches that rank its models and
+        writes unvalidated fills, as before 0.18.0 (the summary counts them
+        apart): a take cleaned without a limit is written as it was.
     first_frame : int
         The frame number of ``positions``' first frame in the take it is part
         of: the frames a record's ``implausible`` names count from it.
@@ -785,9 +787,13 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
                                                      _recipe(m, [models[i] for i in chosen], order, stats, side,
                                                              known), parted)
         why = ""
-        # checked on the expected error; an unknown one fails a limit the user gave (strict), not the default
-        if (np.isfinite(expected) or (strict and np.isfinite(max_error))) and not expected <= max_error:
-            said = (f"expected error {expected * unit_mm:.0f} mm, over" if np.isfinite(expected) else
+        # a limit given is checked on the expected error (an unknown one fails it); the default limits on the error
+        # on the two stretches that rank the models, as before 0.18.0: a take cleaned without a limit is unchanged
+        judged = expected if strict else ranked
+        if (np.isfinite(judged) or (strict and np.isfinite(max_error))) and not judged <= max_error:
+            said = ((f"expected error {judged * unit_mm:.0f} mm, over" if strict else
+                     f"error {judged * unit_mm:.0f} mm on the stretches next to the gap, over")
+                    if np.isfinite(judged) else
                     "expected error unknown (no seen stretch to validate on), so not within")
             whose = ("the limit given: --max-fill-error, max_error_mm= in Python" if strict else
                      "the distance to its nearest marker; --max-fill-error, max_error_mm= in Python")
