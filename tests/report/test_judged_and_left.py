@@ -191,8 +191,10 @@ def test_a_flag_changed_in_part_says_the_frames_left_and_why():
     assert leg["left"].startswith("changed in part: frames 7-13 left as they were: the repair was not better "
                                   "than the take (its entry joins the take less smoothly")
     line = left_line(res)
-    assert line.startswith("2 flagged runs left as they were (UpperLeg_R 7-13, Neck 25-30: the repair was not better "
-                           "than the take; a half turn in one frame and back, not turned back)")
+    # Neck's flip 8-24 is turned back and its frames 0-7 (clean, flagged with it) left; the half turn 31-45 that
+    # lasts to the take's end is left: every cell of the output is the clean take's (0.0 deg off)
+    assert line.startswith("3 flagged runs left as they were (Neck 0-7, UpperLeg_R 7-13, Neck 31-45: the repair was not "
+                           "better than the take; a half turn in one frame, not turned back)")
     left = [f["left_frames"] for f in flag_outcomes(res) if f["left"]]
     assert int(res.flags.sum()) - int((res.flags & res.changed).sum()) == sum(b - a + 1 for a, b in left)
 
