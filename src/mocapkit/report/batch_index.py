@@ -20,7 +20,7 @@ import html
 import os
 from pathlib import Path
 
-from ..cleaning.markers.counts import KINDS
+from ..cleaning.markers.counts import KINDS, counts_words
 from ..io import atomic_write
 from ..words import plural
 
@@ -49,13 +49,11 @@ def take_counts(row: dict) -> tuple[int, str]:
     2 spikes removed, 60 duplicate labels removed": every kind of
     :func:`~mocapkit.cleaning.markers.counts.sample_counts`, and its ``changed``, the samples whose values differ,
     where the row holds it); ``(0, "")`` for a row without counts (a failed take)."""
-    if "spikes" in row:  # a marker capture
-        parts = [(what, row.get(key, 0)) for key, what in KINDS]
-    else:
-        parts = [("filled", row.get("filled", 0)), ("repaired", row.get("repaired", 0)),
-                 ("denoised", row.get("denoised", 0))]
-    changed = int(row["changed"]) if row.get("changed") is not None else int(sum(int(n or 0) for _, n in parts))
-    return changed, ", ".join(f"{int(n)} {what}" for what, n in parts if n)
+    marker = "spikes" in row  # a marker capture
+    kinds = KINDS if marker else (("filled", "filled"), ("repaired", "repaired"), ("denoised", "denoised"))
+    changed = row.get("changed")
+    changed = int(changed) if changed is not None else sum(int(row.get(key) or 0) for key, _ in kinds)
+    return changed, counts_words(row, kinds=kinds)
 
 
 def _kind(row: dict) -> str:

@@ -3,12 +3,12 @@
 A marker cleaning changes a sample in one of five ways: a gap filled, a spike removed, a label swap undone, a
 duplicate label removed (a marker on another's position, :mod:`~mocapkit.cleaning.markers.duplicates`) or another
 point under a marker's label removed (a foreign stretch, :mod:`~mocapkit.cleaning.markers.foreign`). The ``clean``
-totals line, ``clean-batch``'s line per take, its ``OUT_DIR/index.html`` and ``mocapkit info`` of the record each said
-these counts; the batch's views added up only the first three, so a take whose only changes were a duplicate label's
-removed samples read "nothing to change" and was filed "untouched" (a user's trial: 60 samples of RTOE removed and
-filled on 85_02). :func:`sample_counts` gives every view the same numbers, from a
+totals line, ``clean-batch``'s line per take, its ``OUT_DIR/index.html`` and ``mocapkit info`` of the record each say
+these counts, every kind of them, so that a take whose only change is a removed duplicate label never reads "nothing
+to change" nor is filed "untouched". :func:`sample_counts` gives every view the same numbers, from a
 :class:`~mocapkit.cleaning.markers.clean.MarkerCleanResult` or the record it wrote
-(:class:`~mocapkit.cleaning.markers.record.MarkerRecord`), and :data:`KINDS` their words.
+(:class:`~mocapkit.cleaning.markers.record.MarkerRecord`), :data:`KINDS` their words and :func:`counts_words` the
+words a batch row's counts read as.
 """
 
 from __future__ import annotations
@@ -57,9 +57,8 @@ def sample_counts(result) -> dict[str, int]:
             "duplicates": int((dups & ~foreign).sum()), "foreign": int(foreign.sum())}
 
 
-def counts_words(counts, every: bool = False) -> str:
-    """The kinds of :func:`sample_counts` (or a batch row holding its keys) in words: "226 filled, 5 spikes
-    removed, 43 other points under their labels removed"; the kinds with none left out unless ``every`` (the first
-    three always said, as ``info`` of a record lists them)."""
-    return ", ".join(f"{int(counts.get(key) or 0)} {words}" for k, (key, words) in enumerate(KINDS)
-                     if counts.get(key) or (every and k < 3))
+def counts_words(counts, kinds=KINDS) -> str:
+    """The ``kinds`` (``(key, words)`` pairs, by default :data:`KINDS`) of :func:`sample_counts` or of a batch row
+    holding their keys, in words: "226 filled, 5 spikes removed, 43 other points under their labels removed"; the
+    kinds with none left out."""
+    return ", ".join(f"{int(counts[key])} {words}" for key, words in kinds if counts.get(key))
