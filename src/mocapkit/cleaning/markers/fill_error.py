@@ -29,9 +29,8 @@ that it resembles the gap:
   than :data:`SPANS`, or stretches shorter than the gap.
 
 Calibration (gaps cut by ``mocapkit corrupt --kind gaps``, the fill measured
-against the untouched capture; the guide's markers page gives the figures):
-the share of fills more than 2x off their estimate fell from about 1 in 9 to
-about 1 in 40.
+against the untouched capture): about 1 fill in 40 is more than 2x off its
+estimate (the guide's markers page gives the figures).
 
 Where no stretch could be cut the error stays unknown (NaN): the fill is
 *unvalidated*, said so and counted apart, and a limit the user gives
@@ -156,8 +155,8 @@ def expected_error(pos: np.ndarray, m: int, a: int, b: int, spans, fills, weight
     The RMS error on the stretches, times :func:`thin_factor`, and times
     how much more the models disagree in the gap than on the stretches
     (their :func:`disagreement` ratio, where above 1): two doubts, both
-    taken (on trial T3's long one-ended gaps of 85_02 the larger alone
-    still fell short of LHEE's real error). NaN and "" where no stretch
+    taken (on long one-ended gaps of CMU 85_02 the larger alone still fell
+    short of a heel marker's real error). NaN and "" where no stretch
     could be filled: the fill is unvalidated.
     ``least_ratio``: the disagreement ratio to take at least (a single
     model tried after the average failed has no other model to part from:

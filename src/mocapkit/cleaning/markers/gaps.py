@@ -70,7 +70,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from .constraints import enforce_distances
-from .fill_error import SPANS, expected_error
+from .fill_error import SPANS, average, expected_error
 from .lowrank import fill_lowrank
 from .plausible import TakeLimits, implausible, take_limits
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames, to_local
@@ -746,11 +746,10 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
             w = 1.0 / np.maximum(errs[best], 1e-6) ** 2
         validated = []
         for (s, e), c in zip(spans, checks):
-            have = [k for k, i in enumerate(best) if c[i] is not None]
-            if have:
-                wk = w[have] / w[have].sum()
-                validated.append((s, e, np.tensordot(wk, np.stack([c[best[k]] for k in have]), axes=1)))
-        tries.append((np.tensordot(w / w.sum(), np.stack([fills[i] for i in best]), axes=1), best[0], validated))
+            est = average([c[i] for i in best], w)  # the models that filled this stretch, weights renormalised
+            if est is not None:
+                validated.append((s, e, est))
+        tries.append((average([fills[i] for i in best], w), best[0], validated))
         averaged = len(best)
         alone = sorted(usable, key=lambda i: errs[i])  # stable: unvalidated (inf) ones last, in model order
         tries += [(fills[i], i, [(s, e, c[i]) for (s, e), c in zip(spans, checks) if c[i] is not None]) for i in alone]
