@@ -39,7 +39,7 @@ __all__ = ["parameter_values", "header_layout", "analog_unsigned", "offset_value
            "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
            "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
            "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
-           "oversized_parameter"]
+           "oversized_parameter", "parameter_records"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -330,7 +330,7 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
     return stored, scales, written, float(gen[0])
 
 
-def _records(data):
+def parameter_records(data):
     """Yield ``(id, LABEL, start, at, next)`` for each group (id < 0) and parameter record of the parameter
     section of a C3D ezc3d wrote (Intel byte order), in file order: ``start`` the record's first byte,
     ``at`` its offset-to-next word, ``next`` that word's value (0 or less on the last record)."""
@@ -353,7 +353,7 @@ def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
     (Intel byte order), or None. Types: -1 text, 1 byte, 2 16-bit integer, 4 float."""
     groups: dict[int, str] = {}
     found = []
-    for gid, label, _, at, _ in _records(data):
+    for gid, label, _, at, _ in parameter_records(data):
         if gid < 0:
             groups[-gid] = label
         elif label == name.upper():

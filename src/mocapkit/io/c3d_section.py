@@ -2,7 +2,7 @@
 
 ezc3d (1.7) writes the parameter section from its own model of a file, not
 from the parameters it is handed. What it changes, seen on every C3D of the
-test data written with a few samples changed (trialT3 finding 4):
+test data written with a few samples changed:
 
 - POINT:LABELS and ANALOG:LABELS, DESCRIPTIONS, UNITS, SCALE and OFFSET cut to
   the points and channels stored (USED): Eb015pr.c3d's 48 point labels (12 of
@@ -35,7 +35,7 @@ import struct
 
 import numpy as np
 
-from .c3d_layout import put_parameter
+from .c3d_layout import parameter_records, put_parameter
 
 __all__ = ["keep_parameters", "UPDATED", "parameter_record"]
 
@@ -85,17 +85,12 @@ def parameter_record(param: dict) -> bytes:
 
 
 def _records(data) -> list[dict]:
-    """The records of ``data``'s parameter section (a C3D ezc3d wrote: Intel order), in file order: ``gid``
-    (negative for a group), ``name`` (as written), ``locked``, ``body`` (the bytes after the offset word) and,
-    for a parameter, ``values`` (the body up to its description)."""
+    """The records of ``data``'s parameter section (a C3D ezc3d wrote: Intel order), in file order
+    (:func:`~mocapkit.io.c3d_layout.parameter_records`): ``gid`` (negative for a group), ``name`` (as written),
+    ``locked``, ``body`` (the bytes after the offset word) and, for a parameter, ``values`` (the body up to its
+    description)."""
     out = []
-    i = (data[0] - 1) * BLOCK + 4
-    while i + 4 <= len(data):
-        nlen, gid = struct.unpack_from("bb", data, i)
-        if nlen == 0 or gid == 0:
-            break
-        at = i + 2 + abs(nlen)
-        nxt, = struct.unpack_from("<h", data, at)
+    for gid, _, start, at, _ in parameter_records(data):
         if gid < 0:
             end = at + 2 + 1 + data[at + 2]
             values = b""
@@ -104,11 +99,9 @@ def _records(data) -> list[dict]:
             count = int(np.prod(list(data[at + 4:at + 4 + ndim]))) if ndim else 1
             p = at + 4 + ndim + abs(struct.unpack_from("b", data, at + 2)[0]) * count
             values, end = bytes(data[at + 2:p]), p + 1 + data[p]
-        out.append({"gid": gid, "name": bytes(data[i + 2:at]).decode("latin-1"), "locked": nlen < 0,
-                    "body": bytes(data[at + 2:end]), "values": values})
-        if nxt <= 0:
-            break
-        i = at + nxt
+        out.append({"gid": gid, "name": bytes(data[start + 2:at]).decode("latin-1"),
+                    "locked": struct.unpack_from("b", data, start)[0] < 0, "body": bytes(data[at + 2:end]),
+                    "values": values})
     return out
 
 
