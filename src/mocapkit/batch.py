@@ -484,10 +484,11 @@ def _clean_job(job: dict) -> dict:
             os.replace(staged[final], final)
             moved.append(final)
         if hasattr(res, "fixes"):  # a marker capture (cleaning.markers.MarkerCleanResult)
-            from .cleaning.markers.counts import sample_counts
+            from .cleaning.markers.counts import fill_counts, sample_counts
 
-            # every kind of change counted (duplicate labels and foreign stretches too): the take's line and the index
-            row.update(frames=res.markers.num_frames, **sample_counts(res), notes=res.summary()[1:],
+            # every kind of change counted (duplicate labels and foreign stretches too), and the unvalidated fills
+            # apart, as the clean's summary says them: the take's line and the index
+            row.update(frames=res.markers.num_frames, **sample_counts(res), **fill_counts(res), notes=res.summary()[1:],
                        warnings=[],  # what the reader did, what OUT cannot hold, an npz's arrays no reader reads:
                        file_notes=marker_notes(res.original, out, job["input"], filled=res.fill_mask,
                                                record=clean_path(out)))  # each line names its file

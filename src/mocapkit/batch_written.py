@@ -25,18 +25,19 @@ def row_from_record(inp, output, record) -> dict:
     """The batch row of the take ``inp`` written to ``output`` with its ``.clean.npz`` ``record``: ``status`` "done",
     the sample counts the record keeps (``frames``; ``filled``, ``repaired``, ``denoised``, ``flagged`` of a
     joint-angle take; a marker capture's :func:`~mocapkit.cleaning.markers.counts.sample_counts`: ``changed``,
-    ``filled``, ``spikes``, ``swapped``, ``duplicates``, ``foreign``), ``seconds`` None (not measured here)
+    ``filled``, ``spikes``, ``swapped``, ``duplicates``, ``foreign``, and its
+    :func:`~mocapkit.cleaning.markers.counts.fill_counts`: ``gaps``, ``unvalidated``), ``seconds`` None (not measured here)
     and ``reason`` :data:`WRITTEN_NOTE`. Raises :class:`~mocapkit.errors.MocapFormatError` for a record that cannot
     be read."""
     from .cleaning.flags_left import left_line
-    from .cleaning.markers.counts import sample_counts
+    from .cleaning.markers.counts import fill_counts, sample_counts
     from .cleaning.markers.record import read_marker_record
     from .cleaning.pipeline import CleanResult
 
     row = {"input": str(inp), "output": str(output), "status": "done", "reason": WRITTEN_NOTE, "seconds": None}
     if (CleanResult.load_params(record) or {}).get("kind") == "markers":
         rec = read_marker_record(record)
-        row.update(frames=int(rec.changed.shape[0]), **sample_counts(rec))
+        row.update(frames=int(rec.changed.shape[0]), **sample_counts(rec), **fill_counts(rec))
     else:
         res = CleanResult.load(record)
         row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),

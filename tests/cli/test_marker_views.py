@@ -2,8 +2,9 @@
 
 One batch of two short takes cut from the bundled 85_02.c3d (120 frames each) is cleaned once: ``dup.c3d`` with a
 duplicate label (RTOE put on RMT5's position for 60 frames: its only change) and ``zeros.c3d`` with ten samples of
-LKNE stored as exact (0, 0, 0) (read as gaps and filled). The batch's line, its index, the take's report and
-``info`` of its record are read from that one run.
+LKNE stored as exact (0, 0, 0) (read as gaps and filled). ``blind.c3d`` (300 frames) has RFHD hidden from frame 30
+to its end (no seen stretch to validate the fill on: an unvalidated fill) and LWRA 100-139 (validated). The batch's
+line, its index, the take's report and ``info`` of its record are read from that one run.
 """
 
 from __future__ import annotations
@@ -31,7 +32,12 @@ def views(tmp_path_factory):
     dup[40:100, labels.index("Male:RTOE")] = dup[40:100, labels.index("Male:RMT5")]
     zeros = ms.positions.copy()
     zeros[50:60, labels.index("Male:LKNE")] = 0.0
+    blind = load_markers(CMU)[:300]
+    hidden = np.array(blind.positions)
+    hidden[30:, labels.index("Male:RFHD")] = np.nan
+    hidden[100:140, labels.index("Male:LWRA")] = np.nan
     (d / "in").mkdir()
+    save_markers(blind.with_positions(hidden), d / "in" / "blind.c3d")
     save_markers(ms.with_positions(dup), d / "in" / "dup.c3d")
     save_markers(ms.with_positions(zeros), d / "in" / "zeros.c3d")
     code, stdout, stderr = run("clean-batch", d / "in", d / "out", "--jobs", "1", "--report")
@@ -65,6 +71,30 @@ def test_the_batch_row_read_back_from_a_record_counts_the_removed_samples_too(vi
     row = row_from_record(inp / "dup.c3d", out / "dup.c3d", out / "dup.clean.npz")
     assert (row["changed"], row["duplicates"], row["foreign"]) == (60, 60, 0)
     assert take_counts(row) == (60, "60 duplicate labels removed")
+
+
+def test_unvalidated_fills_are_counted_apart_in_every_view(views):
+    """The clean's summary and ``info`` said "2 gaps filled (310 samples; 1 of them unvalidated: expected error
+    unknown)"; the batch's line ("310 filled samples"), its index ("310 filled") and a row read back from the record
+    said the fills with no word of the one written unchecked."""
+    from mocapkit.batch_written import row_from_record
+    from mocapkit.report.batch_index import take_counts
+
+    inp, out, stdout = views
+    said = "1 of 2 gaps unvalidated: expected error unknown"
+    line = next(ln for ln in stdout.splitlines() if "blind.c3d ->" in ln)
+    assert f"310 filled samples ({said})" in line, line
+    index = (out / "index.html").read_text()
+    row = next(r for r in index.split("<tr") if "blind.c3d" in r and "<td" in r)
+    assert f'<td class="n">310</td><td>310 filled ({said})</td>' in row, row
+    back = row_from_record(inp / "blind.c3d", out / "blind.c3d", out / "blind.clean.npz")
+    assert (back["gaps"], back["unvalidated"]) == (2, 1) and take_counts(back) == (310, f"310 filled ({said})")
+    report = (out / "blind.report.html").read_text()
+    assert "2 gaps filled (310 samples; 1 of them unvalidated: expected error unknown)" in report
+    code, info, _ = run("info", out / "blind.clean.npz")
+    assert code == 0 and "2 gaps filled (1 of them unvalidated: expected error unknown)" in info, info
+    line = next(ln for ln in stdout.splitlines() if "dup.c3d ->" in ln)  # a take with no unvalidated fill: no word
+    assert "unvalidated" not in line and "unvalidated" not in index.split("dup.c3d")[1].split("</tr>")[0]
 
 
 def test_samples_read_from_zeros_as_gaps_are_said_in_the_report_and_the_record(views):

@@ -329,6 +329,8 @@ def _written(out: Path, record, report, png) -> list:
 def _take_line(row: dict, done: str = "cleaned") -> str:
     """One line per take of a batch: what was found and fixed, or why it failed or was skipped; ``done``: the word
     a take done starts with ("reviewed" in review mode, --steps detect, where nothing is changed)."""
+    from ..cleaning.markers.counts import unvalidated_words
+
     if row["status"] == "failed":
         reason, name = str(row["reason"]), str(row["input"])
         # a reader's reason names the file already ("PATH:LINE: ..."): the path once
@@ -341,6 +343,9 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
                                                    ("spikes", "spike sample"), ("swapped", "re-labelled sample"),
                                                    ("duplicates", "duplicate-label sample"))
              if row.get(k)]
+    blind = unvalidated_words(row)  # set apart as the clean's summary and info set them apart
+    if blind and row.get("filled"):
+        found[0] += f" ({blind})"
     if row.get("foreign"):  # the kinds of cleaning.markers.counts: every changed sample said, none filed as unchanged
         found.append(plural(row["foreign"], "sample of another point under a label",
                             "samples of other points under their labels"))

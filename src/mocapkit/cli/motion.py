@@ -418,8 +418,8 @@ def _info_of_own_file(path: Path) -> bool:
             console.print(f"  {line}")
         return True
     if name.endswith(".clean.npz") and {"kind", "changed", "labels"} <= keys:
-        from ..cleaning.markers.clean import left_too_long, unvalidated
-        from ..cleaning.markers.counts import KINDS, sample_counts
+        from ..cleaning.markers.clean import left_too_long
+        from ..cleaning.markers.counts import KINDS, sample_counts, unvalidated
         from ..cleaning.markers.record import read_marker_record
         from ..cleaning.pipeline import CleanResult
 

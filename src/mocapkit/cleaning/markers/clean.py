@@ -41,7 +41,7 @@ from threadpoolctl import threadpool_limits
 
 from ...markerset import check_units, subject_of
 from ...words import frame_span, plural
-from .counts import sample_counts
+from .counts import sample_counts, unvalidated
 from .duplicates import find_duplicates
 from .foreign import find_foreign
 from .gaps import SMOOTH_S, TOO_LONG, fill_gaps, nobody_seen
@@ -185,21 +185,6 @@ class MarkerFix:
                 "swap": "markers {} mm apart where it starts"}.get(self.kind, "{} mm")
         text = what.format(f"{self.size_mm:.1f}")
         return f"{self.fill_text}; {text}" if self.kind == "gap" else text
-
-
-def unvalidated(fixes) -> int:
-    """How many of ``fixes`` (:class:`MarkerFix`, or a record's dicts of their fields) are gaps filled with no
-    expected error: no stretch of the marker's seen data to validate the fill on. Such a fill is written
-    unchecked by the default limit, counted apart by a cleaning's summary and ``mocapkit info``, and refused
-    by a limit a user gives (``--max-fill-error``, ``max_error_mm=``)."""
-    out = 0
-    for x in fixes:
-        get = x.get if isinstance(x, dict) else lambda name, default: getattr(x, name, default)
-        expected = get("expected_mm", float("nan"))
-        if get("kind", "") == "gap" and get("method", "") and not np.isfinite(float(np.nan if expected is None
-                                                                                      else expected)):
-            out += 1
-    return out
 
 
 def why_left(fix) -> str:

@@ -9,13 +9,18 @@ to change" nor is filed "untouched". :func:`sample_counts` gives every view the 
 :class:`~mocapkit.cleaning.markers.clean.MarkerCleanResult` or the record it wrote
 (:class:`~mocapkit.cleaning.markers.record.MarkerRecord`), :data:`KINDS` their words and :func:`counts_words` the
 words a batch row's counts read as.
+
+Of the gaps filled, those with no expected error (no seen stretch of the marker to validate the fill on:
+:mod:`~mocapkit.cleaning.markers.fill_error`) are *unvalidated*, written unchecked by the default limit: every view
+counts them apart, by the same rule (:func:`unvalidated`; :func:`fill_counts` gives a batch row the gaps and the
+unvalidated among them, :func:`unvalidated_words` their words, "1 of 2 gaps unvalidated: expected error unknown").
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["KINDS", "sample_counts", "counts_words"]
+__all__ = ["KINDS", "sample_counts", "counts_words", "unvalidated", "fill_counts", "unvalidated_words"]
 
 #: ``(key, words)`` of each kind of change, in the order every view lists them: the keys of :func:`sample_counts`
 #: (and of a batch row), the words after the count ("226 filled, 43 other points under their labels removed").
@@ -60,5 +65,41 @@ def sample_counts(result) -> dict[str, int]:
 def counts_words(counts, kinds=KINDS) -> str:
     """The ``kinds`` (``(key, words)`` pairs, by default :data:`KINDS`) of :func:`sample_counts` or of a batch row
     holding their keys, in words: "226 filled, 5 spikes removed, 43 other points under their labels removed"; the
-    kinds with none left out."""
-    return ", ".join(f"{int(counts[key])} {words}" for key, words in kinds if counts.get(key))
+    kinds with none left out. The filled samples of a row holding :func:`fill_counts` with unvalidated fills among
+    them say so: "310 filled (1 of 2 gaps unvalidated: expected error unknown)"."""
+    blind = unvalidated_words(counts)
+    return ", ".join(f"{int(counts[key])} {words}" + (f" ({blind})" if key == "filled" and blind else "")
+                     for key, words in kinds if counts.get(key))
+
+
+def unvalidated(fixes) -> int:
+    """How many of ``fixes`` (:class:`~mocapkit.cleaning.markers.clean.MarkerFix`, or a record's dicts of their
+    fields) are gaps filled with no expected error: no stretch of the marker's seen data to validate the fill on. Such
+    a fill is written unchecked by the default limit, counted apart by every view of a cleaning (its summary, the
+    batch's line and index, ``mocapkit info``), and refused by a limit a user gives (``--max-fill-error``,
+    ``max_error_mm=``)."""
+    out = 0
+    for x in fixes:
+        expected = _get(x, "expected_mm")
+        if _get(x, "kind") == "gap" and _get(x, "method") and not np.isfinite(float(np.nan if expected is None
+                                                                                   else expected)):
+            out += 1
+    return out
+
+
+def fill_counts(result) -> dict[str, int]:
+    """``{"gaps", "unvalidated"}`` -> count of ``result``'s fixes (a
+    :class:`~mocapkit.cleaning.markers.clean.MarkerCleanResult` or a
+    :class:`~mocapkit.cleaning.markers.record.MarkerRecord`): the gaps it filled, as its summary counts them (fixes of
+    kind "gap"), and the :func:`unvalidated` fills among them."""
+    return {"gaps": sum(1 for x in result.fixes if _get(x, "kind") == "gap"), "unvalidated": unvalidated(result.fixes)}
+
+
+def unvalidated_words(counts) -> str:
+    """The unvalidated fills of ``counts`` (a batch row or :func:`fill_counts`) in words, as the cleaning's summary
+    says them: "1 of 2 gaps unvalidated: expected error unknown"; "" where none is."""
+    blind = int(counts.get("unvalidated") or 0)
+    if not blind:
+        return ""
+    gaps = int(counts.get("gaps") or blind)
+    return f"{blind} of {gaps} {'gap' if gaps == 1 else 'gaps'} unvalidated: expected error unknown"
