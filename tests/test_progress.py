@@ -1,6 +1,9 @@
 """mocapkit.progress: bars on a terminal, none in logs and pipes unless asked for."""
 
 import io
+import os
+import re
+from pathlib import Path
 
 from tqdm.auto import tqdm
 
@@ -54,3 +57,76 @@ def test_a_batch_says_it_started_before_its_first_take_and_only_with_takes_to_cl
         clean_batch(src, tmp_path / "out", steps=["fill"], executor="serial", progress=False,
                     on_start=lambda *a: said.append(("start", *a)), on_row=lambda row, n, total: said.append(n))
     assert said == [("start", 1, 1, "this process"), 1, 1], said
+
+
+def _on_a_pty(args, rows: int, cols: int, tmp_path) -> tuple[int, str, str]:
+    """Run ``python -m mocapkit ARGS`` with standard error on a pseudo-terminal that reports ``rows`` x ``cols``
+    (0 x 0: as ``script`` and some CI runners open one), standard output to a file: (exit status, what the
+    terminal got, stdout)."""
+    import fcntl
+    import pty
+    import select
+    import struct
+    import subprocess
+    import sys
+    import termios
+
+    master, slave = pty.openpty()
+    fcntl.ioctl(slave, termios.TIOCSWINSZ, struct.pack("HHHH", rows, cols, 0, 0))
+    env = {k: v for k, v in os.environ.items() if k not in ("MOCAPKIT_PROGRESS", "COLUMNS", "LINES")}
+    with open(tmp_path / "stdout.txt", "wb") as out:
+        p = subprocess.Popen([sys.executable, "-m", "mocapkit", *map(str, args)], stdin=subprocess.DEVNULL,
+                             stdout=out, stderr=slave, env=env)
+        os.close(slave)
+        got = b""
+        while True:
+            ready, _, _ = select.select([master], [], [], 0.5)
+            if ready:
+                try:
+                    chunk = os.read(master, 65536)
+                except OSError:  # the child closed the terminal
+                    break
+                if not chunk:
+                    break
+                got += chunk
+            elif p.poll() is not None:
+                break
+        code = p.wait()
+    os.close(master)
+    return code, got.decode("utf-8", "replace"), (tmp_path / "stdout.txt").read_text()
+
+
+def test_a_bar_is_drawn_on_a_terminal_that_reports_no_size(tmp_path):
+    """A pseudo-terminal reporting 0 x 0 is a terminal: tqdm read 0 rows there and hid every bar (clean's ssa bar
+    among them); bar_size gives it the 80 x 24 rich and shutil take it to be."""
+    from mocapkit import samples
+
+    code, said, stdout = _on_a_pty(["clean", samples.path("131_01.bvh"), "-o", tmp_path / "c.bvh"], 0, 0, tmp_path)
+    assert code == 0, said + stdout
+    assert re.search(r"ssa 131_01: +100%\|", said), said
+    assert "%|" not in stdout
+    from mocapkit.progress import bar_size
+
+    assert bar_size(io.StringIO()) == {}  # no terminal: tqdm's own test hides the bar
+
+
+def test_fill_shows_its_steps_on_a_terminal_and_nothing_in_a_pipe(tmp_path):
+    """`mocapkit fill` said nothing on standard error while its models loaded and it filled (28 s for the Bandai
+    dance-short take's 1,901 frames on a loaded machine); its bar shows the steps there, on a terminal only."""
+    import subprocess
+    import sys
+
+    import mocapkit
+    from mocapkit import corrupt
+
+    take = mocapkit.load(Path(__file__).resolve().parent / "data" / "bandai_dance-short_normal_001_first60.bvh")
+    gapped, _ = corrupt.gaps(take, seed=2, start_prob=0.05)
+    mocapkit.save(gapped, tmp_path / "gaps.npz")
+    code, said, stdout = _on_a_pty(["fill", tmp_path / "gaps.npz", "-o", tmp_path / "f.npz"], 0, 0, tmp_path)
+    assert code == 0, said + stdout
+    assert "fill gaps.npz" in said and "loading the models" in said and "writing f.npz" in said, said
+    assert "wrote " in stdout and "fill gaps.npz" not in stdout
+    p = subprocess.run([sys.executable, "-m", "mocapkit", "fill", str(tmp_path / "gaps.npz"), "-o",
+                        str(tmp_path / "g.npz")], capture_output=True, text=True,
+                       env={k: v for k, v in os.environ.items() if k != "MOCAPKIT_PROGRESS"})
+    assert p.returncode == 0 and "fill gaps.npz" not in p.stderr + p.stdout and "wrote " in p.stdout, p.stderr

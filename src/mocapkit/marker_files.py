@@ -80,17 +80,12 @@ def gaps_bar(name: str, progress: bool):
     if not progress:
         yield None
         return
-    import shutil
-
     from tqdm.auto import tqdm
 
-    from .progress import bar_disabled
+    from .progress import bar_disabled, bar_size
 
-    # the terminal's size as shutil reads it (80 x 24 where it reports 0 x 0, as a pseudo-terminal `script` opens
-    # without one does): tqdm's own reading gave 0 rows there, and hid the bar
-    size = shutil.get_terminal_size()
-    bar = tqdm(total=0, desc=f"fill {name}", unit="gap", disable=bar_disabled(True), ncols=size.columns,
-               nrows=size.lines)
+    # standard error's size (80 x 24 where a pseudo-terminal reports 0 x 0: mocapkit.progress.bar_size)
+    bar = tqdm(total=0, desc=f"fill {name}", unit="gap", disable=bar_disabled(True), **bar_size())
 
     def tick(done: int, more: int = 0) -> None:
         if more:

@@ -175,6 +175,7 @@ def fill(
     from ..cleaning.zeros import as_missing, find_zeros
     from ..io.euler_branches import bvh_written
     from ..io.takes import CLI_AMC_NAMES, check_asf
+    from ..progress import steps_bar
     from ..reference import filled_error_deg
 
     import numpy as np
@@ -186,30 +187,45 @@ def fill(
     m = _motion_for(inp, out, asf, "fill", amc_fps, unit)
     io.check_writable(m, out)
     ref = _reference(reference, m, asf, amc_fps, unit)
-    ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
-    zeros = find_zeros(m)  # channels written as 0 where the capture lost data: gaps, as clean's fill step finds them
-    gappy = as_missing(m, zeros[0], zeros[2]) if zeros[1] else m
-    missing = gappy.missing()
-    n = int(missing.sum())
-    if not n:
-        if always_write:
-            save_take(m, out, inp, asf, overwrite, like=inp)
-            console.print(f"no gaps in {inp}; nothing to fill; wrote it unchanged to {out}")
-        else:
-            console.print(f"no gaps in {inp}; nothing to fill (nothing written; --always-write writes it)")
+
+    def fill_steps(step):
+        """The fill, its steps said by ``step``: (filled, done, zeros, gappy, missing, n, method), or None for a
+        take without gaps (written unchanged with --always-write)."""
+        ebd, ebf = _model(model, "ebd"), _model(denoiser, "ebf")
+        zeros = find_zeros(m)  # channels written as 0 where the capture lost data: gaps, as clean's fill step finds them
+        gappy = as_missing(m, zeros[0], zeros[2]) if zeros[1] else m
+        missing = gappy.missing()
+        n = int(missing.sum())
+        if not n:
+            if always_write:
+                save_take(m, out, inp, asf, overwrite, like=inp)
+            return None
+        never = [m.skeleton.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
+        if never:
+            raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
+        _served(inp, m, ebd, "ebd", no_fallback, model)
+        step(f"filling {plural(n, 'missing joint sample')}")
+        try:  # the path clean's fill step takes; an own-rig EBD's pair beside it is found there, said in done.note
+            # as clean says it (a warning line: a model file the command was not given)
+            done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},
+                             zeros=zeros)
+        except (SkeletonError, ValueError) as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+        filled, method = bvh_written(m, done.motion, out, asf, inp), done.method  # a hinge holds its axis' angle
+        step(f"writing {out.name}")
+        save_take(filled, out, inp, asf, overwrite, like=inp)
+        return filled, done, zeros, gappy, missing, n, method
+
+    # a bar over the command's steps on standard error (a terminal only: mocapkit.progress): the models' loading
+    # and a long take's fill were a minute of silence
+    with steps_bar(f"fill {inp.name}", 3) as step:
+        step("loading the models")
+        got = fill_steps(step)
+    if got is None:
+        console.print(f"no gaps in {inp}; nothing to fill; wrote it unchanged to {out}" if always_write
+                      else f"no gaps in {inp}; nothing to fill (nothing written; --always-write writes it)")
         return
-    never = [m.skeleton.joint_names[j] for j in np.flatnonzero(missing.all(axis=0))]
-    if never:
-        raise MocapError(f"{inp}: joint(s) {', '.join(never[:4])} are missing in every frame; nothing to fill them from")
-    _served(inp, m, ebd, "ebd", no_fallback, model)
-    try:  # the path clean's fill step takes; an own-rig EBD's pair beside it is found there, said in done.note
-        # as clean says it (a warning line: a model file the command was not given)
-        done = fill_take(m, ebd, ebf, smooth=smooth, method=by, options={"ebd": "--model", "ebf": "--denoiser"},
-                         zeros=zeros)
-    except (SkeletonError, ValueError) as exc:
-        raise MocapError(f"{inp}: {exc}") from None
-    filled, method = bvh_written(m, done.motion, out, asf, inp), done.method  # a hinge holds its axis' angle
-    save_take(filled, out, inp, asf, overwrite, like=inp)
+    filled, done, zeros, gappy, missing, n, method = got
     for said in (done.note, *done.warnings):
         if said:
             console.print(f"warning: {inp}: {said}")

@@ -120,7 +120,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from threadpoolctl import threadpool_limits
 from tqdm.auto import tqdm
-from ..progress import bar_disabled
+from ..progress import bar_disabled, bar_size
 
 from .. import rotations as R
 from ..database import MotionDatabase
@@ -706,7 +706,7 @@ def _solve(
     gpos = np.zeros((F, J, 3))
     mpos = np.zeros((F, len(joints), 3))
     model = None
-    for t in tqdm(range(t0, F), disable=bar_disabled(progress), desc="frames", unit="frame"):
+    for t in tqdm(range(t0, F), disable=bar_disabled(progress), **bar_size(), desc="frames", unit="frame"):
         obs, m_seen = x[t], seen[t]
         n_seen = int(m_seen.sum())
         if t == t0:

@@ -56,7 +56,7 @@ from scipy.interpolate import CubicSpline
 from scipy.ndimage import gaussian_filter1d
 from scipy.optimize import minimize
 from tqdm.auto import tqdm
-from ..progress import bar_disabled
+from ..progress import bar_disabled, bar_size
 
 from .. import rotations as R
 from ..features import Sensor, default_sensors, detect_up_axis, feature_set, five_point_derivative, root_frame
@@ -472,7 +472,7 @@ def motion_tensor(
     ref_feat = feature_set(res[reference], "F15", up_axis=up, scale_cm=True).values
 
     aligned = []
-    for m in tqdm(res, desc="aligning clips", disable=bar_disabled(progress)):
+    for m in tqdm(res, desc="aligning clips", disable=bar_disabled(progress), **bar_size()):
         feat = feature_set(m, "F15", up_axis=up, scale_cm=True).values
         _, path = dtw(feat, ref_feat)
         t = np.interp(grid_t, np.arange(n_ref), _time_map(path, n_ref, warp_smoothing * fps))
@@ -936,7 +936,7 @@ class MultilinearModel:
         z_starts = [np.zeros(sum(sizes))] + [pack([np.eye(d)[i] for d, i in zip(shape, cells[j])]) for j in order]
         z, f = fit_weights(u, z_starts)
         target = np.nan_to_num(a_fit.reshape(n_fit, -1))
-        for _ in tqdm(range(int(self.warp_iterations)), desc="time warp", disable=bar_disabled(self.progress)):
+        for _ in tqdm(range(int(self.warp_iterations)), desc="time warp", disable=bar_disabled(self.progress), **bar_size()):
             # Re-estimate the time map: DTW between the recording and the fitted model's accelerations
             # (turned into the recording's frame by eq. 2.10's rotation) under the current map.
             phq, php = self._warped_phi(u)

@@ -57,7 +57,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from tqdm.auto import tqdm
-from ..progress import bar_disabled
+from ..progress import bar_disabled, bar_size
 
 from .. import rotations as R
 from ..database import MotionDatabase
@@ -626,7 +626,7 @@ def subsequence_graph(
     ctx = _Context(X, P, pos, clip_ids, int(half_window))
     flat = [(si, w) for si, seg in enumerate(segments) for w in seg]
     nodes = []
-    for layer, (_, (a, b)) in enumerate(tqdm(flat, desc="windows", disable=bar_disabled(progress))):
+    for layer, (_, (a, b)) in enumerate(tqdm(flat, desc="windows", disable=bar_disabled(progress), **bar_size())):
         nodes.append(_retrieve(ctx, layer, a, b, int(k)))
     # large gaps: extend the subsequences next to them (first/last layer: to the ends of the signal)
     for j in range(len(nodes)):

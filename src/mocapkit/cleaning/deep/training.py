@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import torch
 from tqdm.auto import tqdm
-from ...progress import bar_disabled
+from ...progress import bar_disabled, bar_size
 
 from ... import corrupt
 from ...errors import SkeletonError
@@ -721,7 +721,7 @@ def train(
     # the bar counts optimiser steps (an epoch of a large rig takes minutes), the epoch in its description
     steps = cfg.steps_per_epoch
     bar = tqdm(total=cfg.epochs * steps, initial=start_epoch * steps, desc=f"train {cfg.kind}", unit="step",
-               disable=bar_disabled(progress))
+               disable=bar_disabled(progress), **bar_size())
     for epoch in range(start_epoch, cfg.epochs):
         bar.set_description(f"train {cfg.kind} epoch {epoch + 1}/{cfg.epochs}")
         rng = np.random.default_rng([cfg.seed, epoch])

@@ -566,7 +566,7 @@ def _judged_by_context(src, full, grows, words, nb: Neighbors, unseen: np.ndarra
 def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = False) -> Detection:
     """:func:`detect` on a take already prepared by :func:`prepare` (with its parameters and context)."""
     from tqdm.auto import tqdm
-    from ...progress import bar_disabled
+    from ...progress import bar_disabled, bar_size
 
     motion, p = an.motion, an.params
     N, M = int(p.source_length), int(p.target_length)
@@ -609,7 +609,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     mean_tex = np.full((G, src.num_frames, m, 4), np.nan)
     spread = np.full((G, src.num_frames, m), np.nan)
     kept: dict = {}  # the words the mean texture warps against the whole texture, for the repair of the flagged ones
-    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=bar_disabled(progress), unit="word")
+    bar = tqdm(total=W * G * (2 if two_stage and has_context else 1), desc=f"ssa {motion.name or 'motion'}", disable=bar_disabled(progress), **bar_size(), unit="word")
     try:
         if two_stage and has_context:
             whole = [gnames.index("whole")] if "whole" in gnames else [int(np.argmax([len(r) for r in grows]))]

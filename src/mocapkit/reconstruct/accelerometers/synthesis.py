@@ -107,7 +107,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import signal
 from tqdm.auto import tqdm
-from ...progress import bar_disabled
+from ...progress import bar_disabled, bar_size
 
 from ... import rotations as R
 from ...database import MotionDatabase
@@ -648,7 +648,7 @@ def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skele
     fps = _check_fps(fps)
     rec = AccelerometerReconstructor(db, fps, sensors, skeleton=skeleton, **params)
     a = _check_readings(readings, rec.sensors)
-    poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=bar_disabled(progress), leave=False)]
+    poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=bar_disabled(progress), **bar_size(), leave=False)]
     return motion_of_poses(poses, rec.skeleton, fps, "reconstruction", up=rec.kb.up)
 
 
