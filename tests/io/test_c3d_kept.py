@@ -247,3 +247,81 @@ def test_a_latin_1_text_is_written_back_as_its_byte(tmp_path):
     out = save_markers(take, tmp_path / "latin.c3d")
     assert b"\x04Ren\xe9" in out.read_bytes()  # its length, then its 4 bytes
     assert ezc3d.c3d(str(out))["parameters"]["SUBJECT"]["NAME"]["value"] == ["Ren\udce9"]
+
+
+CMU_85_02 = Path(__file__).resolve().parents[1] / "data" / "85_02.c3d"
+
+
+def _numbers_equal(a: dict, b: dict) -> bool:
+    """Whether two parameters in ezc3d's layout state the same type and values."""
+    if a["type"] != b["type"]:
+        return False
+    if a["type"] == -1:
+        return list(a["value"]) == list(b["value"])
+    return np.array_equal(np.asarray(a["value"]), np.asarray(b["value"]))
+
+
+def test_a_take_read_by_the_fallback_reader_is_written_with_every_parameter(tmp_path):
+    """The ``c3d`` package (the reader of the files ezc3d cannot read) reads the parameter section's stated blocks
+    only: a file whose records run on past them (c3d.org's Dance.c3d and golfswing.c3d) was written back without
+    the groups there. CMU 85_02.c3d edited by two bytes' worth: its section stating 14 of its 17 blocks (TIMECODE,
+    EVENT_CONTEXT and EVENT run past them) and its data block one whole frame short of the 810 stated, which sends
+    it to the fallback reader. Its 12 EVENT_CONTEXT and EVENT parameters were lost; now every parameter is written
+    as the unedited file states it, but the frame counts, which say the 809 frames written."""
+    raw = bytearray(CMU_85_02.read_bytes())
+    start = (raw[0] - 1) * 512
+    assert raw[start + 2] == 17
+    raw[start + 2] = 14
+    path = tmp_path / "85_02_edited.c3d"
+    path.write_bytes(bytes(raw[:(19 - 1) * 512 + 809 * 41 * 4 * 4]))  # data at block 19, 41 float points a frame
+    take = load_markers(path)
+    assert take.reader == "c3d" and take.num_frames == 809
+    save_markers(take, tmp_path / "out.c3d")
+    want = load_markers(CMU_85_02).source.parameters
+    got = load_markers(tmp_path / "out.c3d").source.parameters
+    lost = [f"{g}:{k}" for g, params in want.items() for k in params if k not in got.get(g, {})]
+    assert lost == [], lost
+    differ = sorted(f"{g}:{k}" for g, params in want.items() for k, p in params.items()
+                    if k != "__METADATA__" and not _numbers_equal(p, got[g][k]))
+    assert differ == ["POINT:FRAMES", "TRIAL:ACTUAL_END_FIELD"], differ
+    assert got["EVENT"]["LABELS"]["value"] == want["EVENT"]["LABELS"]["value"]
+
+
+def test_the_parameter_section_is_read_as_ezc3d_reads_it():
+    """read_parameters (the fallback reader's parameters) gives every parameter of 85_02.c3d as ezc3d does."""
+    import ezc3d
+
+    from mocapkit.io.c3d_parameters import read_parameters
+
+    mine = read_parameters(CMU_85_02.read_bytes())
+    theirs = ezc3d.c3d(str(CMU_85_02))["parameters"]
+    assert set(mine) == {"TRIAL", "SUBJECTS", "POINT", "TIMECODE", "EVENT_CONTEXT", "EVENT"}  # the file's groups
+    for group in mine:  # ezc3d adds groups of its own (ROTATION, EZC3D, an empty ANALOG): not the file's
+        for name, param in theirs[group].items():
+            if name == "__METADATA__":
+                continue
+            got = mine[group][name]
+            assert got["type"] == param["type"] and got["description"] == param["description"], (group, name)
+            value = param["value"]
+            assert (list(got["value"]) == list(value) if param["type"] == -1
+                    else np.array_equal(got["value"], np.atleast_1d(value))), (group, name)
+        assert set(mine[group]) - {"__METADATA__"} == set(theirs[group]) - {"__METADATA__"}, group
+
+
+def test_the_phoenix_dance_take_keeps_its_analog_parameters(shared_data, tmp_path):
+    """c3d.org's Dance.c3d (PhoeniX): ezc3d refuses it, the package read its POINT group only; written back, its
+    ANALOG group was ezc3d's defaults and ANALOG:GAIN was dropped. Now its nine ANALOG parameters are the file's
+    (OFFSET written as the C3D guide's integers, the PhoeniX file's floats 0.0 as 0)."""
+    from mocapkit.io.c3d_parameters import read_parameters
+
+    src = shared_data / "c3d_markers" / "Dance.c3d"
+    take = load_markers(src)
+    assert take.reader == "c3d"
+    save_markers(take, tmp_path / "out.c3d")
+    want = read_parameters(src.read_bytes())["ANALOG"]
+    got = read_parameters((tmp_path / "out.c3d").read_bytes())["ANALOG"]
+    assert set(want) <= set(got)
+    assert all(np.array_equal(np.asarray(want[k]["value"], dtype=object if want[k]["type"] == -1 else float),
+                              np.asarray(got[k]["value"], dtype=object if want[k]["type"] == -1 else float))
+               for k in want if k != "__METADATA__"), [k for k in want if k != "__METADATA__"]
+    assert list(got["GAIN"]["value"]) == [1.0] * 8

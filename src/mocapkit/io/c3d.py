@@ -9,7 +9,9 @@ block from the wrong offset or with the wrong frame size (c3d.org sample28), or
 a data block holding fewer whole frames than the header states
 (ezc3d-testFiles Optotrak.c3d: 29 of the 1,149 frames its header and
 POINT:FRAMES state, read as ezc3d and the c3d package read it); for those the
-pure-Python ``c3d`` package reads the data block, and the MarkerSet records
+pure-Python ``c3d`` package reads the data block, the parameter section is read
+record by record (:func:`~mocapkit.io.c3d_parameters.read_parameters`: the
+package stops at the section's stated blocks), and the MarkerSet records
 which reader was used in ``reader``. A data block that stops partway through
 a frame is a file cut short, refused as truncated BVH and AMC files are.
 Samples stored as exact (0, 0, 0) gaps are read as missing
@@ -52,6 +54,7 @@ from .c3d_layout import (header_events, header_layout, held_analogs, integer_dat
                          put_spare_events, spare_events, stored_analogs, text_chunks,
                          with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
+from .c3d_parameters import read_parameters
 from .c3d_section import keep_parameters
 from .c3d_structure import check_structure
 from .c3d_trial import (channels_held, fit_event_group, fit_force_plates, fit_header_events, trial_frames, trial_rate,
@@ -216,39 +219,6 @@ def _read_ezc3d(path: Path, raw: bytes):
     return labels, xyz, (resid, cameras), fps, units, "ezc3d", source, modelled
 
 
-def _c3d_package_parameters(reader) -> dict:
-    """The parameter section read by the ``c3d`` package, in ezc3d's layout (see :func:`_ezc3d_parameters`)."""
-    out = {}
-    for gname, group in reader.group_items():
-        g = {"__METADATA__": {"DESCRIPTION": _text(group.desc), "IS_LOCKED": False}}
-        for pname, param in group.param_items():
-            typ = {-1: -1, 1: 1, 2: 2, 4: 4}.get(param.bytes_per_element, 1)
-            try:
-                scalar = len(param.dimensions) == 0
-                if typ == -1:
-                    if len(param.dimensions) > 1:
-                        value = [s.strip() for s in param.string_array.reshape(-1)]
-                    else:
-                        value = [param.string_value.strip()]
-                elif typ == 4:
-                    value = np.atleast_1d(np.asarray(param.float_value if scalar else param.float_array, dtype=np.float64))
-                elif typ == 2:
-                    value = np.atleast_1d(np.asarray(param.int16_value if scalar else param.int16_array, dtype=int))
-                else:
-                    value = np.atleast_1d(np.asarray(param.int8_value if scalar else param.int8_array, dtype=int))
-                if typ != -1:
-                    # the package shapes an array by its dimensions reversed (C order); ezc3d by the dimensions
-                    # themselves, first fastest (Fortran order), which is what the writer writes: transposed, a
-                    # plate's FORCE_PLATFORM:CHANNEL (6, plates) is not written as (plates, 6), which read its
-                    # channels across the plates (Eb015si.c3d: plate 1 on channels 1 and 9)
-                    value = value.T
-            except Exception:  # a parameter the package cannot shape: not kept
-                continue
-            g[pname] = {"type": typ, "description": _text(param.desc), "is_locked": False, "value": value}
-        out[gname] = g
-    return out
-
-
 # Groups the readers, the writer and ezc3d look up by their upper-case names: the pure-Python reader's
 # upper-cased names are kept there (:func:`_with_written_case`).
 _LOOKED_UP = frozenset({"POINT", "ANALOG", "TRIAL", "FORCE_PLATFORM", "EVENT"})
@@ -279,12 +249,6 @@ def _with_written_case(parameters: dict, written: dict) -> dict:
     return out
 
 
-def _text(raw) -> str:
-    """A description as ezc3d reads it: its leading spaces kept (Eb015si.c3d's '  Analog labels'), the trailing
-    ones (padding) not."""
-    return raw.decode("latin-1").rstrip() if isinstance(raw, bytes) else str(raw or "").rstrip()
-
-
 def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
     """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` (its bytes ``raw``) whose
     parameters the file names as ``written`` says (:func:`_with_written_case`)."""
@@ -311,10 +275,9 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
         if unit_param is not None:  # one unit, or one per point (ezc3d-testFiles Optotrak.c3d): the first
             units = (list(unit_param.string_array.reshape(-1)) or [""])[0] if len(unit_param.dimensions) > 1 else unit_param.string_value
         fps = _point_rate(path, reader.point_rate)
-        try:
-            parameters = _with_written_case(_c3d_package_parameters(reader), written)
-        except Exception:
-            parameters = {}
+        # every record of the section, not the package's reading, which stops at the section's stated blocks
+        # (c3d.org's Dance.c3d: its ANALOG group's 9 parameters past them) and leaves out a value it cannot shape
+        parameters = _with_written_case(read_parameters(path.read_bytes() if raw is None else raw), written)
         modelled = set()
         for key in _MODELLED:
             p = reader.get(f"POINT:{key}")
