@@ -26,7 +26,8 @@ def row_from_record(inp, output, record) -> dict:
     the sample counts the record keeps (``frames``; ``filled``, ``repaired``, ``denoised``, ``flagged`` of a
     joint-angle take; a marker capture's :func:`~mocapkit.cleaning.markers.counts.sample_counts`: ``changed``,
     ``filled``, ``spikes``, ``swapped``, ``duplicates``, ``foreign``, and its
-    :func:`~mocapkit.cleaning.markers.counts.fill_counts`: ``gaps``, ``unvalidated``), ``seconds`` None (not measured here)
+    :func:`~mocapkit.cleaning.markers.counts.fill_counts`: ``gaps``, ``unvalidated``), ``seconds`` None (not
+    measured here)
     and ``reason`` :data:`WRITTEN_NOTE`. Raises :class:`~mocapkit.errors.MocapFormatError` for a record that cannot
     be read."""
     from .cleaning.flags_left import left_line

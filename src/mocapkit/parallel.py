@@ -398,7 +398,8 @@ def map_ordered(
     n = len(items)
     if n == 0:
         return []
-    bar = tqdm(total=n + done, initial=done, desc=desc, disable=bar_disabled(progress), **bar_size(), unit="item", leave=False)
+    bar = tqdm(total=n + done, initial=done, desc=desc, disable=bar_disabled(progress), **bar_size(), unit="item",
+               leave=False)
     try:
         if executor == "serial" or (executor in (None, "processes") and (n == 1 or (max_workers or os.cpu_count() or 1) == 1)):
             out = [None] * n

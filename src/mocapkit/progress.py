@@ -65,7 +65,8 @@ def steps_bar(name: str, total: int, progress: bool = True):
     mode = bar_disabled(progress)
     console = Console(stderr=True, force_terminal=True if mode is False else None, markup=False, emoji=False,
                       highlight=False)
-    bar = Progress(TextColumn("{task.fields[what]}", markup=False), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+    bar = Progress(TextColumn("{task.fields[what]}", markup=False), BarColumn(), MofNCompleteColumn(),
+                   TimeElapsedColumn(),
                    TextColumn("{task.description}", markup=False), console=console, transient=True,
                    disable=mode is True or (mode is None and not console.is_terminal))
     task = bar.add_task("", total=total, what=name)  # a field: a name's braces are no format

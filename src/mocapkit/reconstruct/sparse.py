@@ -86,7 +86,8 @@ def reconstruct_sparse(
     prev_last = None
     wi, ki = np.nonzero(nb.pos[0] >= 0)
     nws, ok = neighbor_words(src.values, full, known, drop, words[wi], nb.pos[0][wi, ki], N, M, min(11, N), out_rows=all_rows)
-    for w, s in enumerate(tqdm(words, desc="sparse reconstruction", disable=bar_disabled(progress), **bar_size(), unit="word")):
+    bar = tqdm(words, desc="sparse reconstruction", disable=bar_disabled(progress), **bar_size(), unit="word")
+    for w, s in enumerate(bar):
         cands = [(float(nb.dist[0, w, ki[q]]), nws[q]) for q in np.flatnonzero((wi == w) & ok)]
         if not cands:
             continue
