@@ -84,22 +84,25 @@ def test_a_swap_flagged_on_one_side_over_part_of_it_is_found_whole():
     take, bad, (left, right) = _knees_swapped(45, 51)
     flags = np.zeros(bad.rotations.shape[:2], dtype=bool)
     flags[47:52, right] = True
-    found = partner_swaps(bad.rotations, mirrored_rotations(bad), flags, mirror_pairs(bad.skeleton.joint_names), 30.0)
+    found = partner_swaps(bad.rotations, mirrored_rotations(bad), flags, mirror_pairs(bad.skeleton.joint_names),
+                          bad.skeleton.parents, 30.0)
     assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in found] == [(right, left, 45, 51, True)]
-    clean = partner_swaps(take.rotations, mirrored_rotations(take), flags, mirror_pairs(take.skeleton.joint_names), 30.0)
+    clean = partner_swaps(take.rotations, mirrored_rotations(take), flags, mirror_pairs(take.skeleton.joint_names),
+                          take.skeleton.parents, 30.0)
     assert clean == []
     # the right shin turned 14 deg more over 49-51 as well: the exchange fits better, but not at its exit (both left)
     q = np.array(bad.rotations)
     q[49:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, np.radians(14.0)])),
                                             q[49:52, right])
     more = partner_swaps(q, mirrored_rotations(dataclasses.replace(bad, rotations=q)), flags,
-                         mirror_pairs(take.skeleton.joint_names), 30.0)
+                         mirror_pairs(take.skeleton.joint_names), take.skeleton.parents, 30.0)
     assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in more] == [(right, left, 45, 51, False)]
     # one knee bent away from the take alone (an offset, its partner as captured): no swap
     off = np.array(take.rotations)
     off[47:52, right] = R.quaternion_multiply(R.rotvec_to_quaternion(np.array([0.0, 0.0, 0.5])), off[47:52, right])
     off_take = dataclasses.replace(take, rotations=off)
-    assert partner_swaps(off, mirrored_rotations(off_take), flags, mirror_pairs(take.skeleton.joint_names), 30.0) == []
+    assert partner_swaps(off, mirrored_rotations(off_take), flags, mirror_pairs(take.skeleton.joint_names),
+                         take.skeleton.parents, 30.0) == []
 
 
 def test_flags_left_past_a_swap_put_back_are_no_swap_of_their_own():
@@ -116,7 +119,8 @@ def test_flags_left_past_a_swap_put_back_are_no_swap_of_their_own():
     flags[52:56, right] = True
     fixed = np.zeros_like(flags)
     fixed[45:52, [left, right]] = True  # exchanged back: the take's own values there
-    assert partner_swaps(take.rotations, mirrored_rotations(bad), flags, pairs, 30.0, fixed=fixed) == []
+    assert partner_swaps(take.rotations, mirrored_rotations(bad), flags, pairs, take.skeleton.parents, 30.0,
+                         fixed=fixed) == []
 
 
 def test_a_shin_swap_detection_flags_on_one_side_is_exchanged_back_or_left_whole():
@@ -140,3 +144,35 @@ def test_a_shin_swap_detection_flags_on_one_side_is_exchanged_back_or_left_whole
     out, runs = ssa.repair_with_left(worse, det, None, foot_skate=False)
     assert np.array_equal(out.rotations[:, [left, right]], q[:, [left, right]])
     assert any(r.joint == "LowerLeg_R" and "a swap not confirmed" in r.reason for r in runs)
+
+
+def test_a_twist_handed_between_the_joints_of_one_arm_is_no_swap(shared_data):
+    """The CMU backflip (``cmu_asfamc/backflip.amc``) on LaFAN1's rig at 30 fps, a clean take: its left upper arm
+    turns 179 deg about itself into frame 33 while the left wrist turns 173 deg back, and detection flags the
+    right wrist over 35-37 alone. Judged on the joints' values, the hands exchanged over 33-40 joined the take at
+    both ends (a swap confirmed: clean changed both hands over 33-40); judged on each hand's orientation in the
+    body, the exchange breaks the left hand's path (a 177 deg step where it turns 110), so nothing is exchanged
+    and clean gives the left hand back bit for bit. The same take with its hands really swapped over 10-20,
+    flagged on the right over 12-20, is still found whole and confirmed."""
+    from mocapkit.cleaning.ssa.swap_exchange import exchanged_cells, partner_swaps
+    from mocapkit.motion import mirror_pairs
+    from tests.shared import lafan_spelling, motionbuilder_spelling
+
+    take = lafan_spelling(motionbuilder_spelling(mocapkit.load(shared_data / "cmu_asfamc" / "backflip.amc")))[::4]
+    names, parents = take.skeleton.joint_names, take.skeleton.parents
+    pairs = mirror_pairs(names)
+    left, right = names.index("LeftHand"), names.index("RightHand")
+    mirrored = mirrored_rotations(take)
+    flags = np.zeros(take.rotations.shape[:2], dtype=bool)
+    flags[35:38, right] = True
+    assert partner_swaps(take.rotations, mirrored, flags, pairs, parents, 30.0) == []
+    out = mocapkit.clean(take).motion
+    assert np.array_equal(out.rotations[:, left], take.rotations[:, left])
+    assert not exchanged_cells(take.rotations, out.rotations, mirrored, pairs).any()
+    q = np.array(take.rotations)
+    q[10:21, [left, right]] = mirrored[10:21, [left, right]]
+    bad = dataclasses.replace(take, rotations=q)
+    flags = np.zeros(q.shape[:2], dtype=bool)
+    flags[12:21, right] = True
+    found = partner_swaps(q, mirrored_rotations(bad), flags, pairs, parents, 30.0)
+    assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in found] == [(right, left, 10, 20, True)]

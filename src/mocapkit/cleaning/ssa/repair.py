@@ -390,7 +390,7 @@ def _partner_swaps(motion: Motion, flags: np.ndarray, undone: np.ndarray, base: 
     if not any(todo[:, j].any() and partner[j] != j for j in range(len(partner))):
         return flags, kept
     mirrored = mirrored_rotations(motion)
-    found = partner_swaps(base, mirrored, todo, partner, motion.fps, fixed=undone)
+    found = partner_swaps(base, mirrored, todo, partner, motion.skeleton.parents, motion.fps, fixed=undone)
     flags = np.array(flags)
     for sw in found:
         cols, rows = [sw.joint, sw.partner], slice(sw.start, sw.end + 1)

@@ -21,8 +21,13 @@ partner digresses over the same frames (:func:`pair_exchange`): a swap the detec
 A swap detection flagged on one side only is found before the neighbour words are written
 (:func:`partner_swaps`): where the two sides exchanged join the frames beside one side's flagged run better
 than as they came, the exchange is made over the swap's own frames (its ends sought near the flags'), or,
-fitting better but not at every end, both sides are left as they came. The cells a repair exchanged, by any of
-these rules, are the record's swap on both joints (:func:`exchanged_cells`), so the report ties the two sides.
+fitting better but not at every end, both sides are left as they came. The joins are judged on each limb's
+orientation in the body (:func:`parent_orientations`), not on its joint's value alone: a swap exchanges the two
+limbs, so exchanged back each limb continues its own path; a joint whose value breaks while its parent turns
+the other way in the same frames (a twist handed between the joints of one arm) breaks no limb, and its
+partner's mirrored value, which may happen to lie near its own, is no swap of it. The cells a repair exchanged,
+by any of these rules, are the record's swap on both joints (:func:`exchanged_cells`), so the report ties the two
+sides.
 A rule of this library, not of the paper.
 """
 
@@ -35,7 +40,8 @@ import numpy as np
 from ... import rotations as R
 from ..runs import true_runs
 
-__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "pair_exchange", "partner_swaps", "swap_exchanges", "SWAP_JOIN_RATIO"]
+__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "pair_exchange", "parent_orientations", "partner_swaps",
+           "swap_exchanges", "SWAP_JOIN_RATIO"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -154,6 +160,13 @@ class PartnerSwap:
     confirmed: bool
 
 
+def _join_frames(f: int, entry: bool, F: int) -> tuple[int, int]:
+    """``(lo, hi)``: the frames ``lo .. hi - 1`` of a take of ``F`` frames that the join of a run starting
+    (``entry``) or ending at frame ``f`` reads (:func:`_end_join`): two on each side of it."""
+    lo, hi = (f - 2, f + 2) if entry else (f - 1, f + 3)
+    return max(lo, 0), min(hi, F)
+
+
 def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[float, float]:
     """``(after, before)``: the angular acceleration (:func:`~.guard.end_roughness`) at the join of a run that
     starts (``entry``) or ends at frame ``f`` of the track ``q`` (F, 4), with the run's values ``new`` (F, 4)
@@ -162,8 +175,7 @@ def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[floa
     from .guard import angular_acceleration
 
     F = len(q)
-    lo, hi = (f - 2, f + 2) if entry else (f - 1, f + 3)
-    lo, hi = max(lo, 0), min(hi, F)
+    lo, hi = _join_frames(f, entry, F)
     if (f == 0) if entry else (f == F - 1):
         return 0.0, 0.0
     inside = np.arange(lo, hi) >= f if entry else np.arange(lo, hi) <= f
@@ -174,8 +186,23 @@ def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[floa
             float(angular_acceleration(q[lo:hi])[at].max()) if at else 0.0)
 
 
-def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.ndarray, partner, fps: float,
-                  ratio: float = SWAP_JOIN_RATIO, fixed: np.ndarray | None = None) -> list[PartnerSwap]:
+def parent_orientations(rotations: np.ndarray, parents) -> np.ndarray:
+    """(F, J, 4) each joint's parent's orientation in the root joint's frame: the product of the local rotations
+    ``rotations`` (F, J, 4, unit quaternions, w first) of the joint's ancestors below the root; the identity for
+    the root and its children. ``parents`` (J,) int, topological (``parents[j] < j``, the root's -1), as
+    :class:`~mocapkit.motion.Skeleton` holds them. A joint's orientation in the body is this times its own
+    rotation: the limb's path, whichever of its joints turns."""
+    q = np.asarray(rotations, dtype=np.float64)
+    parents = np.asarray(parents, dtype=np.int64)
+    body = np.empty_like(q)  # each joint's own orientation in the root's frame, the root's the identity
+    body[:, 0] = R.identity((len(q),))
+    for j in range(1, q.shape[1]):
+        body[:, j] = R.quaternion_multiply(body[:, parents[j]], q[:, j])
+    return body[:, np.maximum(parents, 0)]
+
+
+def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.ndarray, partner, parents,
+                  fps: float, ratio: float = SWAP_JOIN_RATIO, fixed: np.ndarray | None = None) -> list[PartnerSwap]:
     """The flagged runs of one side of a left/right pair over which the two sides' values exchanged (each taking
     its partner's mirrored rotation) fit the frames beside them better than the input does, with the extent of
     the exchange: a swap detection saw on one side only.
@@ -189,34 +216,72 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
     frames is detection's swap, :func:`swap_exchanges`, or the guard's, :func:`pair_exchange`), the exchange's
     first frame is sought within :data:`EXTENT_S` of ``a`` and its last within that of ``b`` (holding half the
     run at least): the frame nearest the flags' where the larger of the two joints' join ratios (angular
-    acceleration at the join, exchanged against input, :func:`~.guard.end_roughness`) is under ``ratio``, else
+    acceleration at the join, exchanged against input, :func:`~.guard.end_roughness`, of the limb's orientation
+    in the body: :func:`parent_orientations` times the joint's value; of the joint's value alone where one of its
+    ancestors is itself flagged over the frames the join reads, its values no path to judge by: Bandai Namco
+    walk_normal_001 with ``corrupt --kind errors --seed 2`` spikes the left thigh over 43-44, beside the shins'
+    swap 45-51) is under ``ratio``, else
     where it is least (at 120 fps the least one lay 15 frames past a swap's end on HDM05 mm grabHighR,
     exchanging clean frames). **Confirmed** where every join of both joints is under ``ratio``
     times the input's and the exchange takes a step of more than :data:`~.guard.END_TOL_DEG` away (the swap's
     own break: a pair held alike in a symmetric pose exchanges to the same values); **not confirmed** where each
     joint's joins together are smoother exchanged than as they came, but not so at every end. Neither: the run
-    is no swap, and is repaired as any other. ``rotations`` (F, J, 4): the take with what the repair already put
-    back by its own motion (detection's swaps exchanged, offsets taken away), whose cells ``fixed`` (F, J) bool
-    (None: none) no exchange reaches: the flags a swap detection found left past its end are no swap of their
-    own (HDM05 mm kickLFront1Reps with ``real_errors`` seed 2001: the shins' swap 42-63 exchanged back, the right
-    one's flags 64-67 beyond it, judged against the input's swapped frames, joined an exchange of the clean
-    frames 64-77). ``mirrored`` (the input's mirror image; None: a rig that cannot be mirrored, nothing found),
-    ``partner``, ``ratio``: as :func:`swap_exchanges`; ``fps``: the take's rate.
+    is no swap, and is repaired as any other. Judged on the joint's value alone, a twist handed between the joints
+    of one limb passes for a swap: the CMU backflip on LaFAN1's rig at 30 fps turns its left upper arm 179 deg
+    about itself into frame 33 and its left wrist (``LeftHand``) 173 deg back (the hand turns 110 deg in the body),
+    and the right wrist's mirrored value at frame 33 lies 8 deg from the left one's at 32; the hands exchanged over
+    33-40 joined at both ends by their values (left entry 100 against 268 deg/frame^2), while in the body they
+    break the left hand's path (187 against 88: a step of 177 deg). A swap's limb exchanged back continues its own
+    path; the pairs nearer the root are judged first, and a confirmed one is written in (no longer flagged) before
+    its children are judged. ``parents`` (J,) int: the skeleton's (:func:`parent_orientations`). ``rotations``
+    (F, J, 4): the take with what the repair already put back by its own motion (detection's swaps exchanged,
+    offsets taken away), whose cells ``fixed`` (F, J) bool (None: none) no exchange reaches: the flags a swap
+    detection found left past its end are no swap of their own (HDM05 mm kickLFront1Reps with ``real_errors``
+    seed 2001: the shins' swap 42-63 exchanged back, the right one's flags 64-67 beyond it, judged against the
+    input's swapped frames, joined an exchange of the clean frames 64-77). ``mirrored`` (the input's mirror
+    image; None: a rig that cannot be mirrored, nothing found), ``partner``, ``ratio``: as :func:`swap_exchanges`;
+    ``fps``: the take's rate.
     """
     from .guard import END_TOL_DEG
 
     if mirrored is None:
         return []
-    q = np.asarray(rotations, dtype=np.float64)
+    q = np.array(rotations, dtype=np.float64)  # a copy: each confirmed exchange is written in as it is found
     mirrored = np.asarray(mirrored, dtype=np.float64)
     flags = np.asarray(flags, dtype=bool)
     partner = np.asarray(partner, dtype=np.int64)
+    parents = np.asarray(parents, dtype=np.int64)
     F = len(q)
     fixed = np.zeros(flags.shape, dtype=bool) if fixed is None else np.asarray(fixed, dtype=bool)
     W = max(2, int(round(EXTENT_S * fps)))
     out: list[PartnerSwap] = []
     taken = np.zeros(flags.shape, dtype=bool)
-    for j in np.flatnonzero(flags.any(axis=0)):
+    depth = np.zeros(len(parents), dtype=np.int64)
+    for k in range(1, len(parents)):
+        depth[k] = depth[parents[k]] + 1
+
+    doubt = flags.copy()  # the cells still to repair, whose values no join of their children can trust
+
+    def in_body(q):
+        """Each limb's orientation in the body as it stands (F, J, 4), each with its mirrored value instead, and
+        (F, J) bool the frames where one of its ancestors is still to repair."""
+        frames = parent_orientations(q, parents)
+        unsure = np.zeros(doubt.shape, dtype=bool)
+        for k in range(1, len(parents)):
+            unsure[:, k] = unsure[:, parents[k]] | doubt[:, parents[k]]
+        return R.quaternion_multiply(frames, q), R.quaternion_multiply(frames, mirrored), unsure
+
+    def join(k, f, entry):
+        """:func:`_end_join` of joint ``k`` at frame ``f``: of its orientation in the body, or of its value where
+        an ancestor is still to repair over the frames the join reads."""
+        lo, hi = _join_frames(f, entry, F)
+        if unsure[lo:hi, k].any():
+            return _end_join(q[:, k], mirrored[:, k], f, entry)
+        return _end_join(body[:, k], body_mirrored[:, k], f, entry)
+
+    body, body_mirrored, unsure = in_body(q)
+    # a limb's pair before its children's, which are judged on the chain as its exchange puts it back
+    for j in sorted(np.flatnonzero(flags.any(axis=0)), key=lambda k: (depth[k], k)):
         p = int(partner[j])
         if p == j:
             continue
@@ -234,7 +299,7 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
                     lo, hi = (min(f, a), max(f, a)) if entry else (min(f, b), max(f, b))
                     if fixed[lo : hi + 1, [j, p]].any():
                         continue
-                    joins = [_end_join(q[:, k], mirrored[:, k], f, entry) for k in (int(j), p)]
+                    joins = [join(k, f, entry) for k in (int(j), p)]
                     worst = max((x / y if y > 0 else (0.0 if x == 0 else np.inf)) for x, y in joins)
                     got.append((worst, f, joins))
                 # the join nearest the flags' end that passes; else the one that comes closest to passing
@@ -256,6 +321,10 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
             if confirmed or better and gain > END_TOL_DEG:
                 out.append(PartnerSwap(int(j), p, a2, b2, (int(a), int(b)), bool(confirmed)))
                 taken[a2 : b2 + 1, [j, p]] = True
+                if confirmed:
+                    q[a2 : b2 + 1, [j, p]] = mirrored[a2 : b2 + 1, [j, p]]
+                    doubt[a2 : b2 + 1, [j, p]] = False
+                    body, body_mirrored, unsure = in_body(q)
     return out
 
 
