@@ -149,10 +149,10 @@ def test_a_shin_swap_detection_flags_on_one_side_is_exchanged_back_or_left_whole
 def test_a_twist_handed_between_the_joints_of_one_arm_is_no_swap(shared_data):
     """The CMU backflip (``cmu_asfamc/backflip.amc``) on LaFAN1's rig at 30 fps, a clean take: its left upper arm
     turns 179 deg about itself into frame 33 while the left wrist turns 173 deg back, and detection flags the
-    right wrist over 35-37 alone. Judged on the joints' values, the hands exchanged over 33-40 joined the take at
-    both ends (a swap confirmed: clean changed both hands over 33-40); judged on each hand's orientation in the
-    body, the exchange breaks the left hand's path (a 177 deg step where it turns 110), so nothing is exchanged
-    and clean gives the left hand back bit for bit. The same take with its hands really swapped over 10-20,
+    right wrist over 35-37 alone. Judged on the joints' values, the hands exchanged over 33-40 join the take at
+    both ends (a swap confirmed, both hands changed over 33-40); judged on each hand's orientation in the body,
+    the exchange breaks the left hand's path (a 177 deg step where it turns 110), so nothing is exchanged and
+    clean gives the left hand back bit for bit. The same take with its hands really swapped over 10-20,
     flagged on the right over 12-20, is still found whole and confirmed."""
     from mocapkit.cleaning.ssa.swap_exchange import exchanged_cells, partner_swaps
     from mocapkit.motion import mirror_pairs

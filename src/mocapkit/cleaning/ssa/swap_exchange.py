@@ -230,7 +230,7 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
     of one limb passes for a swap: the CMU backflip on LaFAN1's rig at 30 fps turns its left upper arm 179 deg
     about itself into frame 33 and its left wrist (``LeftHand``) 173 deg back (the hand turns 110 deg in the body),
     and the right wrist's mirrored value at frame 33 lies 8 deg from the left one's at 32; the hands exchanged over
-    33-40 joined at both ends by their values (left entry 100 against 268 deg/frame^2), while in the body they
+    33-40 join at both ends by their values (left entry 100 against 268 deg/frame^2), while in the body they
     break the left hand's path (187 against 88: a step of 177 deg). A swap's limb exchanged back continues its own
     path; the pairs nearer the root are judged first, and a confirmed one is written in (no longer flagged) before
     its children are judged. ``parents`` (J,) int: the skeleton's (:func:`parent_orientations`). ``rotations``
