@@ -28,7 +28,8 @@ import numpy as np
 from .errors import MocapFormatError
 from .words import plural
 
-__all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "global_errors_cm", "position_error_cm"]
+__all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "global_errors_cm", "position_error_cm",
+           "skeleton_error_cm"]
 
 
 def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_names: Sequence[str] | None = None,
@@ -130,6 +131,16 @@ def global_errors_cm(reference, result) -> tuple[float, float]:
 
     return (float(joint_position_rms(reference, result, root_relative="pelvis")),
             float(joint_position_rms(reference, result, root_relative="body")))
+
+
+def skeleton_error_cm(reference, result) -> float:
+    """The whole skeleton's joint-position RMS (cm), global: every joint, those above the pelvis too (a game rig's
+    root, ``joint_Root`` on the Bandai Namco rig), which :func:`global_errors_cm`' body leaves out: a result that
+    moves a root the reference holds at the origin shows here (:func:`mocapkit.metrics.joint_position_rms`,
+    ``root_relative=False``)."""
+    from .metrics import joint_position_rms
+
+    return float(joint_position_rms(reference, result, root_relative=False))
 
 
 def position_error_cm(reference, result, heading: bool = False) -> float:

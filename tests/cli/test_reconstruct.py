@@ -129,6 +129,36 @@ def test_markers_on_the_bandai_rig(tmp_path):
     assert np.linalg.norm(a - b, axis=-1).mean() < 2.0  # cm: its own frames are in the database
 
 
+def _hips_channels_off(rec, take):
+    """How far (cm, per axis, worst frame) ``rec``'s Hips position channels are from ``take``'s, with joint_Root's
+    channels the take's (at the origin): the file laid out as the take, Hips carrying the world translation."""
+    np.testing.assert_array_equal(rec.root_positions, take.root_positions)
+    np.testing.assert_array_equal(rec.channel_values()[:, :6], take.channel_values()[:, :6])
+    hips = take.skeleton.index("Hips")
+    return np.abs(rec.translations[:, hips] - take.translations[:, hips]).max(axis=0)
+
+
+@pytest.mark.parametrize("mode", ["--markers", "--ssg", "--accelerometers"])
+def test_a_bandai_reconstruction_keeps_joint_root_where_the_take_holds_it(tmp_path, bandai_db, mode):
+    """joint_Root stays at the origin and Hips carries the translation in every mode, as in the take and the
+    database (not joint_Root moved under the pelvis with Hips' X/Z zeroed); --reference compares the whole
+    skeleton where the body is placed, and says it does not under accelerometers."""
+    import json
+
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), mode, str(BANDAI), "-o", str(out),
+                            "--reference", str(BANDAI), "--json")
+    assert code == 0, err
+    rep, rec, take = json.loads(stdout), mocapkit.load(out), mocapkit.load(BANDAI)
+    off = _hips_channels_off(rec, take)
+    if mode == "--accelerometers":  # the height only: the pelvis's ground position is integrated, its heading free
+        assert off[1] < 10.0
+        assert "skeleton_position_rms_cm" not in rep and rep["not_compared"].startswith("joint_Root and the joints above")
+    else:
+        worst = np.linalg.norm(rec.global_positions() - take.global_positions(), axis=-1).max()
+        assert off.max() < 5.0 and worst < 10.0 and rep["skeleton_position_rms_cm"] < 2.0  # cm
+
+
 def test_a_database_of_bandai_namco_takes_says_their_licence_in_db_info_and_reconstruct(tmp_path):
     # the trial: a database and a reconstruction from Bandai Namco takes (CC BY-NC 4.0) said nothing of it
     from pathlib import Path

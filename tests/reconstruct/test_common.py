@@ -18,6 +18,7 @@ from mocapkit.reconstruct._common import (
     body_motion,
     body_skeleton,
     database_positions,
+    held_above,
     output_skeleton,
     whole_motion,
 )
@@ -116,3 +117,48 @@ def test_body_motion_of_a_pelvis_rooted_rig_is_the_motion_itself():
     m = mocapkit.load(samples.path("12_walk.amc"))[:10]
     assert body_motion(m) is m and body_skeleton(m.skeleton) is m.skeleton
     assert whole_motion(m, m.skeleton, UP) is m
+
+
+def test_the_body_goes_back_under_a_root_held_where_the_bandai_take_holds_it():
+    """joint_Root at the origin in every frame: written there again, Hips' channels carrying the translation, the
+    take's every channel back bit for bit (the root is not turned into root motion under the pelvis)."""
+    m = mocapkit.load(BANDAI)
+    held = held_above(m)
+    assert held is not None and held.num_frames == 1
+    np.testing.assert_array_equal(held.root_positions, 0.0)
+    w = whole_motion(body_motion(m), m.skeleton, UP, held)
+    np.testing.assert_array_equal(w.channel_values(), m.channel_values())
+    np.testing.assert_array_equal(w.global_positions(), m.global_positions())
+    # a database of the take holds it the same: what a reconstruction is laid out as without an input skeleton
+    db = MotionDatabase.build([m], fps=30, executor="serial", progress=False)
+    np.testing.assert_array_equal(held_above(db).root_positions, 0.0)
+
+
+def test_unreal_root_held_or_moving_is_kept_as_the_take_has_it():
+    """Unreal's ``root`` above ``pelvis`` (Bandai takes under its names): an in-place take (dataset 2, the root at
+    the origin) is held and comes back bit for bit; root motion (dataset 1's dash, the root moving along z) is
+    not held, and :func:`laid_out_like` keeps its root frame by frame only where the body follows the take."""
+    from mocapkit.reconstruct.output import laid_out_like
+    from tests.shared import unreal_spelling
+
+    m = unreal_spelling(mocapkit.load(BANDAI))
+    assert m.skeleton.joint_names[:2] == ("root", "pelvis")
+    w = whole_motion(body_motion(m), m.skeleton, UP, held_above(m))
+    np.testing.assert_array_equal(w.channel_values(), m.channel_values())
+    dash = unreal_spelling(mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"))
+    assert held_above(dash) is None and np.ptp(dash.root_positions[:, 2]) > 100.0
+    floor = whole_motion(body_motion(dash), dash.skeleton, UP)  # the root on the floor under the pelvis
+    assert laid_out_like(floor, dash) is floor
+    kept = laid_out_like(floor, dash, follow=True)
+    np.testing.assert_allclose(kept.root_positions, dash.root_positions, atol=1e-9)
+    np.testing.assert_allclose(kept.global_positions(), dash.global_positions(), atol=1e-9)
+    # a root-motion result laid out like the in-place take: the root back at the origin, the body where it was
+    back = laid_out_like(whole_motion(body_motion(m), m.skeleton, UP), m)
+    np.testing.assert_array_equal(back.root_positions, 0.0)
+    np.testing.assert_allclose(back.global_positions(), m.global_positions(), atol=1e-9)
+
+
+def test_a_pelvis_rooted_rig_holds_nothing_above_the_pelvis():
+    m = mocapkit.load(samples.path("12_walk.amc"))[:10]
+    assert held_above(m) is None
+    assert whole_motion(m, m.skeleton, UP, held_above(m)) is m

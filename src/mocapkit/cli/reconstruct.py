@@ -170,7 +170,7 @@ def reconstruct(
     from ..io.c3d import MarkerSet
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion, load_take
     from ..motion import Motion, unit_scale_cm
-    from ..reference import check_reference, global_errors_cm, position_error_cm
+    from ..reference import check_reference, global_errors_cm, position_error_cm, skeleton_error_cm
 
     given = [(k, p) for k, p in (("markers", markers), ("accelerometers", accelerometers), ("ssg", ssg)) if p is not None]
     if len(given) != 1:
@@ -270,6 +270,12 @@ def reconstruct(
         raise MocapError(f"{inp}: {exc}") from None
     if gaps and result.missing().any():  # NaN poses taken from the database: not written, not even to an .npz
         raise MocapError(_nan_database_line(db, db_dir))
+    if isinstance(source, Motion) and source.skeleton.is_compatible(result.skeleton):
+        from ..reconstruct.output import laid_out_like
+
+        # the joints above the pelvis (joint_Root) as the input has them; its moving root only where the body
+        # is placed in its frame (markers), not under accelerometers, which do not place it
+        result = laid_out_like(result, source, follow=kind != "accelerometers")
     report, errors = "", {}
     if ref is not None:
         check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
@@ -277,14 +283,24 @@ def reconstruct(
         # accelerometers see no heading: their error is measured with each motion's heading removed
         heading = kind == "accelerometers"
         err = position_error_cm(ref, result, heading=heading)
+        from ..rigs import pelvis_index
+
+        above = pelvis_index(result.skeleton) != 0  # a root above the pelvis (joint_Root): compared where placed
         how = "root and heading removed" if heading else "root-relative"
         report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
-        errors = {"reference": str(reference), "joint_position_rms_cm": err,
-                  "joint_position_rms_is": "root and heading removed" if heading else "root-relative"}
+        errors = {"reference": str(reference), "joint_position_rms_cm": err, "joint_position_rms_is": how}
+        if heading and above:
+            unplaced = f"{result.skeleton.joint_names[0]} and the joints above the pelvis: accelerometers do not place the body"
+            report += f"; not compared: {unplaced}"
+            errors.update(not_compared=unplaced)
         if not heading:  # markers place the body in their frame: where it lies is part of the error
             pelvis_cm, body_cm = global_errors_cm(ref, result)
             report += f"; in the markers' frame: pelvis {pelvis_cm:.2f} cm, body {body_cm:.2f} cm"
             errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
+            if above:  # the whole skeleton, the root above the pelvis too
+                whole_cm = skeleton_error_cm(ref, result)
+                report += f", whole skeleton (with {result.skeleton.joint_names[0]}) {whole_cm:.2f} cm"
+                errors.update(skeleton_position_rms_cm=whole_cm)
     from ..reconstruct.control import upsampled_note
 
     coarse = upsampled_note(fps, db.fps, "the accelerometer readings" if kind == "accelerometers" else "the markers")

@@ -5,7 +5,9 @@ root, on the Bandai Namco game rig the root ``joint_Root`` stays on the floor
 and ``Hips`` carries the translation. Reconstruction works on the *body*: the
 pelvis (found by its role, :func:`mocapkit.rigs.pelvis_index`) and the joints
 below it, re-rooted so the pelvis is joint 0 (:func:`body_motion`), and puts
-the joints above it back on output (:func:`whole_motion`).
+the joints above it back on output (:func:`whole_motion`) as the takes hold
+them (:func:`held_above`): the Bandai Namco root at the origin, the pelvis's
+position channels carrying the whole translation.
 """
 
 from __future__ import annotations
@@ -212,14 +214,66 @@ def body_motion(m: Motion) -> Motion:
     return Motion(body_skeleton(sk), rot, gpos[:, idx[0]], m.fps, m.name, tr)
 
 
-def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
+def _cm_per_unit(skeleton: Skeleton) -> float:
+    """Centimetres per length unit of ``skeleton`` (:func:`~mocapkit.motion.unit_scale_cm`), 1 where it cannot be told."""
+    from ..errors import SkeletonError
+
+    try:
+        return unit_scale_cm(skeleton)
+    except SkeletonError:
+        return 1.0
+
+
+def held_above(take) -> Motion | None:
+    """The pose of the joints above the pelvis where ``take`` holds them still, else None.
+
+    ``take``: a Motion or a :class:`~mocapkit.database.MotionDatabase` (every frame of its takes). A game rig's
+    root above the pelvis either stays put (the Bandai Namco ``joint_Root`` at the origin in every frame, the
+    pelvis's position channels carrying the translation: an in-place root) or follows the body (root motion).
+    Returned for the first: a one-frame Motion on ``take``'s skeleton whose joints above the pelvis (the root's
+    position, their rotations and animated offsets) are theirs in every finite frame, within 1e-3 cm and about
+    2e-4 rad. None when the pelvis is the root, when they move, or when no frame is finite.
+    """
+    sk = take.skeletons[0] if hasattr(take, "skeletons") else take.skeleton
+    inside = np.zeros(sk.num_joints, dtype=bool)
+    inside[body_joints(sk)] = True
+    above = np.flatnonzero(~inside)
+    if inside[0]:
+        return None
+    rot = np.asarray(take.rotations[:, above], dtype=np.float64)
+    root = np.asarray(take.root_positions, dtype=np.float64)
+    tr = getattr(take, "translations", None)
+    tr = None if tr is None else np.asarray(tr, dtype=np.float64)
+    ok = np.isfinite(rot).all(axis=(1, 2)) & np.isfinite(root).all(axis=1)
+    if tr is not None:
+        ok &= np.isfinite(tr[:, above]).all(axis=(1, 2))
+    if not ok.any():
+        return None
+    f = int(np.argmax(ok))
+    cm = _cm_per_unit(sk)
+    turned = 1.0 - np.abs(np.sum(rot[ok] * rot[f], axis=-1))  # 1 - cos(angle / 2), q and -q alike
+    moved = [np.abs(root[ok] - root[f]).max() * cm]
+    if tr is not None:
+        moved.append(np.abs(tr[ok][:, above] - tr[f, above]).max() * cm)
+    if turned.max() > 5e-9 or max(moved) > 1e-3:
+        return None
+    one = np.asarray(take.rotations[f:f + 1], dtype=np.float64)
+    return Motion(sk, one / np.linalg.norm(one, axis=-1, keepdims=True), root[f:f + 1], take.fps, "held above the pelvis",
+                  None if tr is None else tr[f:f + 1])
+
+
+def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray, held: Motion | None = None) -> Motion:
     """The inverse of :func:`body_motion`: ``body`` (on ``body_skeleton(skeleton)``) back on ``skeleton``.
 
-    The joints above the pelvis keep their rest rotations (identity). When the
-    pelvis has position channels (a game rig whose root stays on the floor),
-    the root is put on the ground plane (orthogonal to the unit ``up``) under
-    the pelvis and the pelvis's translation lifts it; otherwise the root sits
-    where the pelvis's rest offset puts the pelvis in place.
+    Every body joint keeps its global transform. When the pelvis has position channels and ``held`` is given
+    (a Motion on ``skeleton``'s joints of one frame, :func:`held_above`: the takes hold the joints above the
+    pelvis still; or of ``body``'s frames: the input take's own), the joints above the pelvis are written as
+    ``held`` has them (the Bandai Namco ``joint_Root`` at the origin) and the pelvis's rotation and position
+    channels carry its whole global transform, relative to its parent there. Otherwise the joints above the
+    pelvis keep their rest rotations (identity); when the pelvis has position channels (a root that follows the
+    body) the root is put on the ground plane (orthogonal to the unit ``up``) under the pelvis and the pelvis's
+    translation lifts it, else the root sits where the pelvis's rest offset puts the pelvis in place.
+    ``held``'s positions are converted from its skeleton's unit to ``skeleton``'s.
     """
     idx = body_joints(skeleton)
     if idx[0] == 0:
@@ -236,7 +290,19 @@ def whole_motion(body: Motion, skeleton: Skeleton, up: np.ndarray) -> Motion:
         tr = np.broadcast_to(skeleton.offsets, (F, J, 3)).copy()
         if body.translations is not None:
             tr[:, idx[1:]] = body.translations[:, 1:]
-    if moves:
+    if moves and held is not None:
+        above = np.setdiff1d(np.arange(J), idx)
+        s = _cm_per_unit(held.skeleton) / _cm_per_unit(skeleton)  # held's unit -> skeleton's
+        n = held.num_frames  # 1 (held still) or F
+        rot[:, above] = held.rotations[:, above]
+        if held.translations is not None:
+            tr[:, above] = held.translations[:, above] * s
+        root = np.broadcast_to(held.root_positions * s, (F, 3))
+        grot, gpos = Motion(skeleton, rot[:n], root[:n], body.fps, translations=tr[:n]).global_transforms()
+        inv = R.quaternion_conjugate(grot[:, skeleton.parents[p]])
+        rot[:, p] = R.quaternion_multiply(inv, body.rotations[:, 0])
+        tr[:, p] = R.quaternion_rotate(inv, pelvis - gpos[:, skeleton.parents[p]])
+    elif moves:
         root = pelvis - (pelvis @ up)[:, None] * up
         tr[:, p] = pelvis - root - (rest[skeleton.parents[p]] - rest[0])
     else:

@@ -130,7 +130,7 @@ from ..search.knn import KNNIndex
 from ..rigs import pelvis_index, roles
 from .marker_units import check_marker_scale
 from ._common import (align_about_vertical, database_up, body_joints, body_motion, body_skeleton, in_database_units, in_units_of,
-                      output_skeleton, per_clip, whole_motion)
+                      held_above, output_skeleton, per_clip, whole_motion)
 from .control import marker_residuals, warn_unseen
 from .dofs import on_joint_dofs
 from .model_kinematics import (carried_by, fk_model_pose, fk_model_poses, point_jacobian, range_coordinates,
@@ -808,7 +808,7 @@ def _solve(
     glob = local.copy()
     glob[:, 0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, theta), local[:, 0])
     glob[:t0], root[:t0] = glob[t0], root[t0]
-    out = whole_motion(Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction"), whole, up)
+    out = whole_motion(Motion(sk, R.quaternion_normalize(glob), root, run_fps, name="reconstruction"), whole, up, held_above(db))
     out = in_units_of(out, given, back)
     if run_fps != fps:
         out = out.resample(fps)[:F_in]

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import SkeletonError
 from ..joints import unit_scale_cm
 
-__all__ = ["described_arrays", "kept_licence", "save_reconstruction", "UNIT_NAMES"]
+__all__ = ["described_arrays", "kept_licence", "laid_out_like", "save_reconstruction", "UNIT_NAMES"]
 
 #: Centimetres per unit -> the unit's name, for ``length_unit``.
 UNIT_NAMES = {0.1: "mm", 1.0: "cm", 2.54: "in", 10.0: "dm", 30.48: "ft", 100.0: "m"}
@@ -59,6 +59,32 @@ def described_arrays(motion, method: str, licence: str | None = None) -> dict:
     if licence:
         out["licence"] = np.array(str(licence))
     return out
+
+
+def laid_out_like(m, take, follow: bool = False):
+    """``m`` (a whole reconstructed Motion on ``take``'s joints) with the joints above the pelvis as ``take`` (the
+    input take, a Motion, or a database) has them, every body joint where it was.
+
+    A game rig's file is written laid out as its input: where ``take`` holds those joints still
+    (:func:`mocapkit.reconstruct._common.held_above`: the Bandai Namco ``joint_Root`` at the origin of
+    dataset 2), there, ``Hips``' position channels carrying the world translation; where it moves them (root
+    motion, the ``joint_Root`` of dataset 1) and ``follow`` (the body placed in ``take``'s frame, as markers
+    place it) with ``m``'s frames, ``take``'s own in every frame. ``m`` itself otherwise: the pelvis is the
+    root or has no position channels, or the root follows the body on the floor
+    (:func:`~mocapkit.reconstruct._common.whole_motion`).
+    """
+    from ._common import body_joints, body_motion, held_above, whole_motion
+
+    held = held_above(take)
+    if held is None and follow and getattr(take, "num_frames", -1) == m.num_frames and take.num_frames:
+        above = np.setdiff1d(np.arange(take.num_joints), body_joints(take.skeleton))
+        whole = [take.root_positions, take.rotations[:, above]]
+        if take.translations is not None:
+            whole.append(take.translations[:, above])
+        held = take if all(np.isfinite(a).all() for a in whole) else None  # a gap there: nothing to keep
+    if held is None:
+        return m
+    return whole_motion(body_motion(m), m.skeleton, np.zeros(3), held)
 
 
 def save_reconstruction(motion, path, method: str, *, asf=None, licence: str | None = None) -> Path:

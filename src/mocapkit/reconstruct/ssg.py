@@ -65,7 +65,7 @@ from ..motion import Motion, Skeleton
 from ..search.dtw import subsequence_dtw
 from .marker_units import check_marker_scale
 from ._common import (align_about_vertical, body_skeleton, database_bodies, database_positions, in_database_units, in_units_of,
-                      onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
+                      held_above, onto_marker_heights, onto_pelvis_marker, output_skeleton, per_clip, whole_motion)
 from .control import warn_unseen
 from .dofs import on_joint_dofs
 from ..words import plural
@@ -925,7 +925,7 @@ def reconstruct(
     rot, root = _synthesise(db, database_bodies(db), graph, path)
     root = onto_pelvis_marker(root, Xd, names, db.skeletons[0])
     root = onto_marker_heights(root, rot, Xd, names, out_sk, db.fps, _UP)
-    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP), given, back)
+    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="ssg reconstruction"), out_sk, _UP, held_above(db)), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
     return on_joint_dofs(out)
@@ -965,7 +965,7 @@ def framewise(markers, joints, db: MotionDatabase, fps: float, *, cost_window: f
         rot[f, 0] = R.quaternion_multiply(T.quaternion(), rot[f, 0])
         root[f] = T.apply(root[f])
     root = onto_pelvis_marker(root, _resample_markers(X, fps, db.fps), names, db.skeletons[0])
-    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP), given, back)
+    out = in_units_of(whole_motion(Motion(body_skeleton(out_sk), rot, root, db.fps, name="framewise nearest pose"), out_sk, _UP, held_above(db)), given, back)
     if fps != db.fps:
         out = out.resample(fps)[: X.shape[0]]
     return on_joint_dofs(out)

@@ -114,7 +114,7 @@ from ...database import MotionDatabase
 from ...features import find_up_axis
 from ...motion import Motion, Skeleton, readonly_view, unit_scale_cm
 from ...search.lng import OnlineLazyNeighborhoodGraph
-from .._common import body_skeleton, output_skeleton, whole_motion
+from .._common import body_skeleton, held_above, output_skeleton, whole_motion
 from ..dofs import on_joint_dofs
 from .kernels import FrameEnergy, Rig, minimise
 from .knowledge import clip_starts, knowledge_base
@@ -601,12 +601,15 @@ def _check_readings(readings, sensors) -> np.ndarray:
     return a
 
 
-def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction", up=None) -> Motion:
+def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str = "reconstruction", up=None,
+                    held: Motion | None = None) -> Motion:
     """The Motion (F frames at ``fps`` on ``skeleton``) of the poses :meth:`AccelerometerReconstructor.push` returned.
 
     Poses of the body of a rig whose pelvis is not the root are put back on
     the whole skeleton (:func:`~mocapkit.reconstruct._common.whole_motion`),
-    the root on the ground plane orthogonal to ``up`` (found from the poses
+    the joints above the pelvis as ``held`` has them (the database's takes hold
+    them still: :func:`~mocapkit.reconstruct._common.held_above`), else the
+    root on the ground plane orthogonal to ``up`` (found from the poses
     when None). Each joint is turned only about its skeleton's rotation dofs
     (:func:`~mocapkit.reconstruct.dofs.on_joint_dofs`: what an AMC keeps).
     """
@@ -618,7 +621,7 @@ def motion_of_poses(poses: list[Pose], skeleton: Skeleton, fps: float, name: str
         return on_joint_dofs(m)
     if up is None:
         up = find_up_axis(body, m.global_positions())
-    return on_joint_dofs(whole_motion(m, skeleton, np.asarray(up, dtype=np.float64)))
+    return on_joint_dofs(whole_motion(m, skeleton, np.asarray(up, dtype=np.float64), held))
 
 
 def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton: Skeleton | None = None,
@@ -649,7 +652,7 @@ def reconstruct(readings, db: MotionDatabase, fps: float, sensors=None, *, skele
     rec = AccelerometerReconstructor(db, fps, sensors, skeleton=skeleton, **params)
     a = _check_readings(readings, rec.sensors)
     poses = [rec.push(r) for r in tqdm(a, desc="frames", disable=bar_disabled(progress), **bar_size(), leave=False)]
-    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction", up=rec.kb.up)
+    return motion_of_poses(poses, rec.skeleton, fps, "reconstruction", up=rec.kb.up, held=held_above(db))
 
 
 def reconstruct_mahalanobis(readings, db: MotionDatabase, fps: float, sensors=None, *, skeleton=None,
@@ -713,4 +716,4 @@ def reconstruct_nearest_neighbor(readings, db: MotionDatabase, fps: float, senso
         q = R.rotvec_to_quaternion(p.reshape(J, 3))
         q[0] = R.quaternion_multiply(R.quaternion_from_axis_angle(up, heading), q[0])
         rot[k], root[k] = q, (ground + height * up) / scale
-    return on_joint_dofs(whole_motion(Motion(sk, rot[held], root[held], fps, "nearest neighbour"), whole, up))
+    return on_joint_dofs(whole_motion(Motion(sk, rot[held], root[held], fps, "nearest neighbour"), whole, up, held_above(db)))
