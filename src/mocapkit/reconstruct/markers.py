@@ -82,8 +82,9 @@ Rigs: the method works on the *body*, the pelvis (found by its role,
 :func:`mocapkit.rigs.pelvis_index`) and the joints below it
 (:func:`._common.body_motion`); on the Bandai Namco game rig, whose root
 ``joint_Root`` stays on the floor while ``Hips`` carries the translation, the
-joints above the pelvis are put back on output (the root on the ground under
-the pelvis, :func:`._common.whole_motion`). The vertical axis comes from the
+joints above the pelvis are put back on output as the database's takes hold
+them (:func:`._common.held_above`: ``joint_Root`` at the origin, ``Hips``
+carrying the translation; :func:`._common.whole_motion`). The vertical axis comes from the
 database's frames (:func:`._common.database_up`), not from the rest pose. Frames with no marker at all keep the previous local
 model and are carried by the prior and the smoothness term (an
 extrapolation at constant velocity); frames before the first frame with three

@@ -37,8 +37,9 @@ Rigs: subsequences are played back as *bodies* (:func:`._common.body_motion`:
 the pelvis, found by its role, and the joints below it), so on the Bandai
 Namco game rig, whose root ``joint_Root`` stays on the floor while ``Hips``
 carries the translation, the pelvis is what is aligned, cross-faded and
-placed; ``joint_Root`` is put back on the ground under it on output
-(:func:`._common.whole_motion`), as :mod:`.markers` does. A marker on the
+placed; ``joint_Root`` is put back on output as the database's takes hold it
+(:func:`._common.held_above`: at the origin, ``Hips`` carrying the
+translation; :func:`._common.whole_motion`), as :mod:`.markers` does. A marker on the
 pelvis, where seen, places it (:func:`._common.onto_pelvis_marker`).
 
 Departures from the thesis, all documented where they act: the local cost is

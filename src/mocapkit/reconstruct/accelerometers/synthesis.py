@@ -92,8 +92,11 @@ one pose per input sample at the input's rate.
 Rigs. The synthesis poses the body: the pelvis (found by its role,
 :func:`mocapkit.rigs.pelvis_index`) and the joints below it
 (:func:`~mocapkit.reconstruct._common.body_motion`); joints above the pelvis
-(the floor-bound root of a game rig) are put back on output, the root on the
-ground under the pelvis (:func:`~mocapkit.reconstruct._common.whole_motion`).
+(the floor-bound root of a game rig) are put back on output as the database's
+takes hold them (:func:`~mocapkit.reconstruct._common.held_above`: the Bandai
+Namco ``joint_Root`` at the origin, ``Hips`` carrying the translation), else
+the root on the ground under the pelvis
+(:func:`~mocapkit.reconstruct._common.whole_motion`).
 
 Missing readings. A sample with any non-finite value holds the previous pose
 (state unchanged, the graph not updated); before the first valid sample the
