@@ -345,3 +345,41 @@ def test_a_file_that_writes_no_nan_is_not_read_again_for_measured_channels(tmp_p
         keep_measured_in_denoise(take, moved)
         measured_axes(take)
         assert bool(calls) == parsed
+
+
+def test_two_nan_channels_take_the_pair_nearest_the_fill(tmp_path):
+    """131_01's LeftElbow (ZXY) with its Zrotation and Xrotation nan in frames 300-339 and its Yrotation measured,
+    filled 5 deg off the file's rotation (about the joint's local Y): the Z and X kept are the pair whose rotation,
+    beside the measured Y, is nearest the fill (no step of either angle brings it nearer), 3.2 deg from it on
+    average. The fill's own Z and X set beside the measured Y were 5.0 deg from it. The measured Y stays the
+    file's text."""
+    from mocapkit import rotations as R
+    from mocapkit.cleaning.measured import keep_measured
+
+    src = samples.path("131_01.bvh")
+    path = tmp_path / "two_nan.bvh"
+    lines = _with_nan(src, path, 60, range(300, 340))
+    _with_nan(path, path, 61, range(300, 340))
+    before, truth = read_bvh(path), read_bvh(src)
+    assert before.missing()[300:340, 19].all() and before.missing().sum() == 40
+    off = np.broadcast_to(R.euler_to_quaternion(np.array([5.0, 0.0, 0.0]), "YXZ"), (40, 4))
+    rot = np.array(truth.rotations)
+    rot[300:340, 19] = R.quaternion_multiply(rot[300:340, 19], off)
+    kept, cells = keep_measured(before, dataclasses.replace(before, rotations=rot))
+    assert cells[300:340, 19].all() and cells.sum() == 40
+    fill = rot[300:340, 19]
+    away = np.degrees(R.geodesic_angle(kept.rotations[300:340, 19], fill))
+    assert away.mean() < 3.5
+    zxy = R.quaternion_to_euler(kept.rotations[300:340, 19], "ZXY")
+    for k in (0, 1):  # the nearest: a step of Z or of X either way moves the rotation away from the fill
+        for step in (-0.05, 0.05):
+            moved = zxy.copy()
+            moved[:, k] += step
+            assert np.all(np.degrees(R.geodesic_angle(R.euler_to_quaternion(moved, "ZXY"), fill)) >= away - 1e-9)
+    out = tmp_path / "out.bvh"
+    write_bvh(kept, out, like=path)
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    written, given = out.read_text().split("\n"), path.read_text().split("\n")
+    changed = {(i - at, k) for i, (a, b) in enumerate(zip(given, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y}
+    assert changed == {(f, k) for f in range(300, 340) for k in (60, 61)}  # the nan numbers alone

@@ -59,8 +59,8 @@ def keep_measured(before: Motion, after: Motion) -> tuple[Motion, np.ndarray]:
     (:func:`~mocapkit.io.euler_branches.partly_missing`), the measured channels are the file's numbers and one
     missing channel the angle whose rotation (built as the BVH reader builds it, intrinsic, in the joint's channel
     order) is nearest the filled one, on the whole turn nearest its own curve bridged linearly over its gap
-    (:func:`_filled_angles`; two missing, the filled rotation's Euler angles on the branch nearest the file's
-    numbers), so only the missing channels take the fill's value; an AMC bone line partly ``nan`` alike (its dofs the Euler angles of ``C^-1 q C``, ``C`` the bone's ASF
+    (:func:`_filled_angles`; two missing, the pair whose rotation is nearest the filled one), so only the missing
+    channels take the fill's value; an AMC bone line partly ``nan`` alike (its dofs the Euler angles of ``C^-1 q C``, ``C`` the bone's ASF
     axis frame, in the dofs' extrinsic order). Returns ``(motion, cells)``:
     ``cells`` (F, J) bool the cells changed from ``after``; ``after`` itself where none is.
     """
@@ -285,25 +285,58 @@ def _filled_angles(target: np.ndarray, own: np.ndarray, near: np.ndarray, order:
     chosen so that the rotation is the nearest to ``target`` (N, 4; the fill's) that the measured ones allow, on
     the whole turn nearest ``near`` (N, n; the missing channel's curve bridged over its gap).
 
-    One missing angle ``t``: the rotation is ``A r(t) B`` (``r`` the turn about its axis), so
-    ``q(t) = cos(t/2) q(0) + sin(t/2) q(180)`` and its inner product with ``target`` is largest at
-    ``t = 2 atan2(<q(180), target>, <q(0), target>)``: the geodesic nearest. Taking ``target`` apart and keeping
-    its angle for the missing channel instead puts the rotation as far from the fill as the measured angles are
-    from ``target``'s own, which near gimbal lock (the middle angle near 90 deg) is tens of degrees: Bandai
-    bye_giant's Spine (X 89.5 deg, its Z missing) came out up to 68 deg from the fill, now 0.4 deg. Two missing
-    angles: those of ``target`` taken apart (on the branch nearest ``near``)."""
+    The fill is solved for in the rotation, not filled in the channel space: the network and the gap prior fill
+    a joint's whole rotation, and a missing Euler channel is whatever angle, beside the measured ones, gives the
+    rotation nearest to it (the least geodesic angle, i.e. the largest ``|<q, target>|``). A channel curve filled
+    on its own knows nothing of the other channels, and near gimbal lock (the middle angle near 90 deg) Z and Y
+    trade off, so neither a spline through the missing channel nor the fill's own angle for it is the rotation the
+    fill found.
+
+    The rotation is ``A r(t) B`` in each angle ``t`` (``r`` the turn about its axis), so
+    ``q(t) = cos(t/2) q(0) + sin(t/2) q(180)``. One missing angle: ``<q(t), target>`` is largest at
+    ``t = 2 atan2(<q(180), target>, <q(0), target>)``. Two missing angles ``s``, ``t``: ``q`` is bilinear in
+    ``x = (cos(s/2), sin(s/2))`` and ``y = (cos(t/2), sin(t/2))``, so ``<q, target> = x^T M y`` with ``M`` (2, 2)
+    its values at ``s, t`` in {0, 180}; its largest over unit ``x``, ``y`` is ``M``'s largest singular value, at
+    its singular vectors. Both are the geodesic nearest, exactly, in any order (intrinsic or extrinsic, middle
+    angle measured or not). Taking ``target`` apart and keeping its angles for the missing channels instead puts
+    the rotation as far from the fill as the measured angles are from ``target``'s own: Bandai bye_giant's Spine
+    (X 89.5 deg, its Z missing) came out up to 68 deg from the fill, 0.4 deg by the nearest angle; 131_01's
+    LeftElbow (ZYX) with Z and Y missing and a fill 5 deg off about its Y, 5.0 deg, 3.2 by the nearest pair."""
     angles = R.nearest_euler(R.quaternion_to_euler(target, order), near, order)
-    angles = np.where(np.isnan(own), angles, own)
-    one = np.isnan(own).sum(axis=-1) == 1
-    if one.any():
-        rows, k = np.flatnonzero(one), np.argmax(np.isnan(own[one]), axis=-1)
-        at0 = np.where(np.isnan(own[rows]), 0.0, own[rows])
-        at180 = at0.copy()
-        at180[np.arange(rows.size), k] = 180.0
-        t = target[rows]
-        a = np.sum(R.euler_to_quaternion(at0, order) * t, axis=-1)
-        b = np.sum(R.euler_to_quaternion(at180, order) * t, axis=-1)
-        turn = 2.0 * np.degrees(np.arctan2(b, a))
-        ref = near[rows, k]
-        angles[rows, k] = turn + 360.0 * np.round((ref - turn) / 360.0)
+    lost = np.isnan(own)
+    angles = np.where(lost, angles, own)
+    count = lost.sum(axis=-1)
+    n = own.shape[-1]
+    for k in range(n):  # one missing angle
+        rows = np.flatnonzero((count == 1) & lost[:, k])
+        if rows.size:
+            at = [_at(angles[rows], {k: h}) for h in (0.0, 180.0)]
+            a, b = (np.sum(R.euler_to_quaternion(x, order) * target[rows], axis=-1) for x in at)
+            angles[rows, k] = _near_turn(2.0 * np.degrees(np.arctan2(b, a)), near[rows, k])
+    for k, m in ((k, m) for k in range(n) for m in range(k + 1, n)):  # two missing angles
+        rows = np.flatnonzero((count == 2) & lost[:, k] & lost[:, m])
+        if not rows.size:
+            continue
+        M = np.empty((rows.size, 2, 2))
+        for i, hk in enumerate((0.0, 180.0)):
+            for j, hm in enumerate((0.0, 180.0)):
+                q = R.euler_to_quaternion(_at(angles[rows], {k: hk, m: hm}), order)
+                M[:, i, j] = np.sum(q * target[rows], axis=-1)
+        u, _, vt = np.linalg.svd(M)
+        angles[rows, k] = _near_turn(2.0 * np.degrees(np.arctan2(u[:, 1, 0], u[:, 0, 0])), near[rows, k])
+        angles[rows, m] = _near_turn(2.0 * np.degrees(np.arctan2(vt[:, 0, 1], vt[:, 0, 0])), near[rows, m])
     return angles
+
+
+def _at(angles: np.ndarray, set_to: dict) -> np.ndarray:
+    """A copy of ``angles`` (N, n) with column ``k`` set to ``set_to[k]`` degrees for each key."""
+    out = np.array(angles, dtype=np.float64)
+    for k, v in set_to.items():
+        out[:, k] = v
+    return out
+
+
+def _near_turn(turn: np.ndarray, near: np.ndarray) -> np.ndarray:
+    """``turn`` (degrees) plus the whole turns that put it nearest ``near``: the same rotation, on the branch of the
+    channel's own curve."""
+    return turn + 360.0 * np.round((near - turn) / 360.0)
