@@ -42,6 +42,9 @@ def test_fill_of_one_nan_channel_keeps_the_measured_channels_text(tmp_path, take
     assert taken.missing()[5:13, joint].all()
     done = fill_take(taken)
     assert done.filled[5:13, joint].all() and not done.motion.missing().any()
+    name, channel = taken.channel_names()[column].split(".")
+    assert "8 partly measured cells filled in their nan channels alone" in done.warnings[-1]
+    assert done.warnings[-1].endswith(f": {name} {channel} (frames 5-12)")  # which channel the fill made up
     out = tmp_path / "out.bvh"
     write_bvh(done.motion, out, like=path)
     written = out.read_text().split("\n")
@@ -383,3 +386,61 @@ def test_two_nan_channels_take_the_pair_nearest_the_fill(tmp_path):
     changed = {(i - at, k) for i, (a, b) in enumerate(zip(given, written)) for k, (x, y) in
                enumerate(zip(a.split(" "), b.split(" "))) if x != y}
     assert changed == {(f, k) for f in range(300, 340) for k in (60, 61)}  # the nan numbers alone
+
+
+
+def _amc_with_nan(path: Path, nan: dict) -> list[str]:
+    """12_walk.amc (and its 12.asf beside it) at ``path`` with, for each ``bone: (dofs, frames)`` of ``nan``, those
+    dofs (0-based, after the bone's name) written ``nan`` in those 0-based frames; the file's lines."""
+    import shutil
+
+    lines = samples.path("12_walk.amc").read_text(encoding="latin-1").split("\n")
+    shutil.copy(samples.path("12.asf"), path.with_suffix(".asf"))
+    at, first = None, None
+    for i, line in enumerate(lines):
+        tokens = line.split(" ")
+        if len(tokens) == 1 and tokens[0].isdigit():
+            at = int(tokens[0])
+            first = at if first is None else first
+        elif at is not None and tokens[0] in nan and at - first in nan[tokens[0]][1]:
+            for d in nan[tokens[0]][0]:
+                tokens[1 + d] = "nan"
+            lines[i] = " ".join(tokens)
+    path.write_text("\n".join(lines), encoding="latin-1")
+    return lines
+
+
+def test_every_fill_path_names_the_channels_it_filled_and_keeps_the_measured_ones(tmp_path):
+    """12_walk.amc with lhumerus' rx and rz ``nan`` in frames 100-139 (its ry measured) and lradius (one dof) ``nan``
+    whole in frames 200-209: `mocapkit fill`, `mocapkit clean` (all steps and ``--steps fill``) and
+    ``mocapkit.clean`` write the ``nan`` numbers alone, and each says which channels of the partly measured cells
+    it filled (the summary, the record, the report, the fill command's lines); the whole joint's gap is the cell count's. The
+    fill said "50 joint samples changed" and named no channel: which numbers of lhumerus were the file's and which
+    made up could be told only by a diff with the input."""
+    import mocapkit
+    from mocapkit.cleaning.clean_record import CleanResult
+    from mocapkit.report.html import write_clean_report
+    from tests.cli.helpers import run
+
+    path = tmp_path / "two_nan.amc"
+    given = _amc_with_nan(path, {"lhumerus": ((0, 2), range(100, 140)), "lradius": ((0,), range(200, 210))})
+    nan_at = {(i, k) for i, line in enumerate(given) for k, x in enumerate(line.split(" ")) if x == "nan"}
+    assert len(nan_at) == 90
+    said = ("40 partly measured cells filled in their nan channels alone, the measured channels kept as the file "
+            "writes them: lhumerus rx and rz (frames 100-139)")
+    done = fill_take(read_amc(path))
+    assert said in done.warnings and done.filled.sum() == 50
+    res = mocapkit.clean(path, steps="fill")
+    assert any(said in line for line in res.summary())
+    res.save(tmp_path / "rec.clean.npz")
+    assert said in CleanResult.load(tmp_path / "rec.clean.npz").steps[0].note
+    write_clean_report(tmp_path / "report.html", read_amc(path), res)
+    assert said in (tmp_path / "report.html").read_text()
+    for args in (["fill"], ["clean", "--steps", "fill"], ["clean"]):
+        out = tmp_path / f"{args[0]}_{len(args)}.amc"
+        code, stdout, _ = run(*args, path, "-o", out)
+        assert code == 0 and said in " ".join(stdout.split()), (args, stdout)
+        written = out.read_text(encoding="latin-1").split("\n")
+        changed = {(i, k) for i, (a, b) in enumerate(zip(given, written)) for k, (x, y) in
+                   enumerate(zip(a.split(" "), b.split(" "))) if x != y}
+        assert changed == nan_at, args  # every nan filled, every measured number the file's text

@@ -158,9 +158,10 @@ class CleanResult:
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """The notes a step said of itself: a fallback, or the licence of a model used whose terms restrict use
-        (the non-commercial Bandai Namco models): what `mocapkit clean` says as ``warning:`` lines and the HTML
-        report shows above its viewer."""
+        """The notes a step said of itself: a fallback, the licence of a model used whose terms restrict use
+        (the non-commercial Bandai Namco models), or the channels the fill made up in cells the file measures in
+        part (:func:`mocapkit.cleaning.measured.filled_channels_note`): what `mocapkit clean` says as ``warning:``
+        lines and the HTML report shows above its viewer."""
         said = " ".join(s.note for s in self.steps)
         return tuple(n for n in self.notes if n and n in said)
 

@@ -37,8 +37,10 @@ from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..io.sources import recall
 from ..motion import Motion
+from ..words import frame_span, listed, plural
 
 __all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note", "measured_axes",
+           "filled_channels", "filled_channels_note", "MAX_NAMED_JOINTS",
            "REPAIR_TOLERANCE_DEG"]
 
 #: Degrees: a repaired cell the file gives partly ``nan`` keeps its measured channels where its missing ones alone put
@@ -154,6 +156,64 @@ def kept_note(kept: np.ndarray, names, step: str, stood: np.ndarray | None = Non
         said.append(f"{cells(stood)} changed whole by the {step}, measured channels too: the missing ones alone came "
                     f"no nearer than {REPAIR_TOLERANCE_DEG:g} deg to its rotation (evidence against the measured ones)")
     return "; ".join(said)
+
+
+#: Joints :func:`filled_channels_note` names one by one; the rest it counts.
+MAX_NAMED_JOINTS = 6
+
+
+def filled_channels(before: Motion, after: Motion) -> tuple[np.ndarray, list[str]] | None:
+    """The file channels ``after`` (``before`` filled, :func:`keep_measured`) filled in the cells ``before``'s BVH
+    or AMC file (its ``source_file``, or an .npz keeping such a file's numbers) gives partly ``nan``: ``(mask,
+    names)``, ``mask`` (F, C) bool over the file's channels in the writers' column order, ``names`` the C names
+    ``"joint.channel"`` (a BVH's ``Zrotation``, an AMC's ``rx``). A cell is a joint's channels in one frame; one
+    partly ``nan`` (some channels ``nan``, the others measured: a rotation with one angle missing, a rotation
+    missing beside measured position channels) is filled in its ``nan`` channels alone, and ``after`` has it
+    (not missing). None where no file is or no cell is partly ``nan`` and filled (a whole joint's gap is said by
+    the cell counts)."""
+    values, channels, bvh = _file_numbers(after, before.source_file)
+    if values is None or values.shape[0] != after.num_frames or len(channels) != after.num_joints:
+        return None
+    has = ~after.missing()
+    mask = np.zeros(values.shape, dtype=bool)
+    names: list[str] = []
+    start = 0
+    for j, chans in enumerate(channels):
+        cols = slice(start, start + len(chans))
+        start += len(chans)
+        names.extend(f"{after.skeleton.joint_names[j]}.{c}" for c in chans)
+        if len(chans) < 2:
+            continue
+        own = values[:, cols]
+        mask[:, cols] = np.isnan(own) & (partly_missing(own) & has[:, j])[:, None]
+    return (mask, names) if mask.any() else None
+
+
+def filled_channels_note(before: Motion, after: Motion) -> str:
+    """One line naming the channels ``after`` filled in cells ``before``'s file gives partly ``nan``
+    (:func:`filled_channels`), joint by joint with their frames (0-based; the first :data:`MAX_NAMED_JOINTS`
+    joints, the rest counted), and saying that the file's measured channels there are kept as written: what
+    ``clean``'s fill step and ``mocapkit fill`` say, so that a person knows which numbers of a partly measured
+    cell are made up; "" where there is none."""
+    found = filled_channels(before, after)
+    if found is None:
+        return ""
+    mask, names = found
+    parts = []
+    cells = 0
+    cols = np.flatnonzero(mask.any(axis=0))
+    for joint in dict.fromkeys(names[c].rsplit(".", 1)[0] for c in cols):
+        own = [c for c in cols if names[c].rsplit(".", 1)[0] == joint]
+        rows = np.flatnonzero(mask[:, own].any(axis=1))
+        cells += rows.size
+        whole = rows[-1] - rows[0] + 1 == rows.size
+        frames = (frame_span(int(rows[0]), int(rows[-1])) if whole
+                  else f"{plural(int(rows.size), 'frame')} of {frame_span(int(rows[0]), int(rows[-1]))}")
+        parts.append(f"{joint} {listed(names[c].rsplit('.', 1)[1] for c in own)} ({frames})")
+    more = len(parts) - MAX_NAMED_JOINTS
+    said = "; ".join(parts[:MAX_NAMED_JOINTS]) + (f"; and {plural(more, 'more joint')}" if more > 0 else "")
+    return (f"{plural(cells, 'partly measured cell')} filled in their nan channels alone, the measured channels "
+            f"kept as the file writes them: {said}")
 
 
 def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]:

@@ -56,7 +56,7 @@ from ..motion import Motion
 from ..words import plural
 from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import Guarded, guarded_take
-from .measured import keep_measured, keep_measured_in_repair, kept_note, measured_axes
+from .measured import filled_channels_note, keep_measured, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
@@ -142,7 +142,8 @@ class TakeFill:
     (:func:`~mocapkit.cleaning.zeros.find_zeros`); ``method``: what filled (``"nothing (no gaps)"`` when nothing
     was missing); ``note``: the fallback or licence line of :func:`mocapkit.cleaning.deep.fill_or_fallback` ("" when
     none); ``warnings``: lines a person should read (most of the take made up, fills far from the line between a
-    gap's ends).
+    gap's ends, the channels filled in cells the file measures in part:
+    :func:`~mocapkit.cleaning.measured.filled_channels_note`).
     """
 
     motion: Motion
@@ -163,7 +164,8 @@ def fill_take(motion: Motion, ebd=None, ebf=None, *, smooth: bool = True, method
     missing cells (:func:`~mocapkit.cleaning.zeros.as_missing`), and every missing cell is filled by
     :func:`mocapkit.cleaning.deep.fill_or_fallback` (the EBD where it serves the take, else the cubic spline),
     the numbers a missing cell still has put back (:func:`~mocapkit.cleaning.measured.keep_measured`: a BVH cell
-    with one ``nan`` channel takes the fill's value in that channel alone); every other sample is returned bit-identical. ``ebd``, ``ebf``: as :func:`resolve_model` takes them;
+    with one ``nan`` channel takes the fill's value in that channel alone, and ``warnings`` names the channels so
+    filled: :func:`~mocapkit.cleaning.measured.filled_channels_note`); every other sample is returned bit-identical. ``ebd``, ``ebf``: as :func:`resolve_model` takes them;
     ``smooth``, ``method``, ``options``: as for ``fill_or_fallback``. Raises :class:`~mocapkit.errors.MocapError`
     naming the take when a joint is missing in every frame (nothing to fill it from).
     """
@@ -186,7 +188,7 @@ def fill_take(motion: Motion, ebd=None, ebf=None, *, smooth: bool = True, method
                                            options=options, doubts=doubts)
     out, _ = keep_measured(cur, out)  # a cell's measured numbers put back: only its missing ones filled
     filled = differing(cur.rotations, out.rotations) | (gaps & ~out.missing())
-    warnings = tuple(w for w in (made_up_note(gaps), *doubts) if w)
+    warnings = tuple(w for w in (made_up_note(gaps), *doubts, filled_channels_note(cur, out)) if w)
     return TakeFill(out, filled, cells, tuple(runs), how, note, warnings)
 
 
