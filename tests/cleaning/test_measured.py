@@ -444,3 +444,30 @@ def test_every_fill_path_names_the_channels_it_filled_and_keeps_the_measured_one
         changed = {(i, k) for i, (a, b) in enumerate(zip(given, written)) for k, (x, y) in
                    enumerate(zip(a.split(" "), b.split(" "))) if x != y}
         assert changed == nan_at, args  # every nan filled, every measured number the file's text
+
+
+def test_the_numbers_a_bvh_holds_in_memory_are_the_files_measured_ones_bit_for_bit(tmp_path):
+    """131_01's LeftElbow with its Xrotation ``nan`` in frames 300-339 (Z and Y measured) and its root's Yposition
+    in frames 500-539, filled: :func:`mocapkit.io.bvh.written_values` (the numbers a BVH written from the take
+    holds) gives every number the file measures bit for bit, as the file written does. It gave the measured
+    angles of the filled cells as their rotation's conversion, some 1e-14 deg off the file's."""
+    from mocapkit.cleaning.gapfill import fill_motion
+    from mocapkit.cleaning.measured import keep_measured
+    from mocapkit.io.bvh import written_values
+
+    path = tmp_path / "one_nan.bvh"
+    lines = _with_nan(samples.path("131_01.bvh"), path, 61, range(300, 340))
+    _with_nan(path, path, 1, range(500, 540))
+    at = next(i for i, t in enumerate(lines) if t.startswith("Frame Time")) + 1
+    given = np.array([[float(x) for x in t.split()] for t in path.read_text().split("\n")[at:] if t.strip()])
+    before = read_bvh(path)
+    kept, cells = keep_measured(before, fill_motion(before, "cubic"))
+    assert cells[300:340, 19].all() and not kept.missing().any()
+    numbers = written_values(kept)
+    measured = np.isfinite(given)
+    assert np.array_equal(numbers[measured], given[measured])
+    assert np.isfinite(numbers).all()
+    out = tmp_path / "out.bvh"
+    write_bvh(kept, out, like=path)
+    back = np.array([[float(x) for x in t.split()] for t in out.read_text().split("\n")[at:] if t.strip()])
+    assert np.array_equal(back[measured], given[measured])

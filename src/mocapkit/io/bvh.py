@@ -637,7 +637,9 @@ def written_values(motion: Motion, like=None) -> np.ndarray:
     ``motion.source_file``): file units and degrees, joints depth first, each with its channels as written (a take
     read from a BVH: the file's, :meth:`~mocapkit.motion.Motion.channel_names`). Where the take holds that file's
     frames (all, or a slice's) an unchanged cell is the file's own number, a changed angle on the file's branch
-    (:func:`mocapkit.io.euler_branches.continuous_rotations`); else each joint's angles continuous over frames:
+    (:func:`mocapkit.io.euler_branches.continuous_rotations`), and in a cell the file leaves partly ``nan`` each
+    channel it measures and the fill kept (:func:`mocapkit.io.euler_branches.measured_text`) the file's own number,
+    bit for bit, as the file written holds it; else each joint's angles continuous over frames:
     the joint angles as the file gives them (CMU's 01_01.bvh Hips past 180 degrees), not the plain conversion of
     :meth:`~mocapkit.motion.Motion.channel_values`."""
     return _written(motion, motion.source_file if like is None else like)[4]
@@ -654,6 +656,8 @@ def _written(motion: Motion, like):
     order = depth_first_order(sk)
     source = _source_numbers(like, out_motion, order)
     continuous_rotations(values, channels, source)
+    if source is not None:  # a filled cell's measured channels: the file's numbers, as the writers keep their text
+        values = np.where(measured_text(values, channels, source.values), source.values, values)
     if order != list(range(sk.num_joints)):
         starts = np.cumsum([0] + [len(c) for c in channels])
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
