@@ -471,3 +471,26 @@ def test_the_numbers_a_bvh_holds_in_memory_are_the_files_measured_ones_bit_for_b
     write_bvh(kept, out, like=path)
     back = np.array([[float(x) for x in t.split()] for t in out.read_text().split("\n")[at:] if t.strip()])
     assert np.array_equal(back[measured], given[measured])
+
+
+
+def test_the_spline_fallback_keeps_the_measured_channels_and_names_the_filled_one(tmp_path, monkeypatch):
+    """131_01 with LeftElbow's Xrotation ``nan`` in frames 300-339, filled where no network serves the take (the
+    cubic spline of fill_or_fallback's fallback): the spline's fill is kept on the measured Z and Y as the
+    networks' is, only the ``nan`` numbers written, and the fill's lines name the channel."""
+    from mocapkit.cleaning.deep import inference
+
+    monkeypatch.setattr(inference, "served_or_refused", lambda motion, model, kind: (None, "no network serves it"))
+    path = tmp_path / "one_nan.bvh"
+    given = _with_nan(samples.path("131_01.bvh"), path, 61, range(300, 340))
+    done = fill_take(read_bvh(path))
+    assert done.method == inference.FALLBACK_FILL and done.filled.sum() == 40
+    assert done.warnings == ("40 partly measured cells filled in their nan channels alone, the measured channels "
+                             "kept as the file writes them: LeftElbow Xrotation (frames 300-339)",)
+    out = tmp_path / "out.bvh"
+    write_bvh(done.motion, out, like=path)
+    at = next(i for i, t in enumerate(given) if t.startswith("Frame Time")) + 1
+    written = out.read_text().split("\n")
+    changed = [(i, k) for i, (a, b) in enumerate(zip(given, written)) for k, (x, y) in
+               enumerate(zip(a.split(" "), b.split(" "))) if x != y]
+    assert changed == [(at + f, 61) for f in range(300, 340)]
