@@ -11,8 +11,8 @@ from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import detect_take, take_params
-from mocapkit.cleaning.ssa.guard import (angular_acceleration, end_roughness, guard_joint, held, on_path_ends, pair_left,
-                                         rougher_end, roughness)
+from mocapkit.cleaning.ssa.guard import (angular_acceleration, end_roughness, guard_joint, held, held_guess_runs,
+                                         joined_path, on_path_ends, pair_left, rougher_end, roughness)
 
 
 def _turn(angles_deg: np.ndarray) -> np.ndarray:
@@ -81,6 +81,47 @@ def test_a_held_run_is_not_judged_by_its_ends():
     assert held(orig, 20, 30) and not held(truth, 20, 30)
     assert rougher_end(acc_in, acc_out, 20, 30) is not None  # its entry gains a step ...
     assert guard_joint(orig, out, changed, np.zeros(F, dtype=bool), changed) == []  # ... but a freeze's repair is kept
+
+
+def test_the_path_the_joins_imply_is_a_steady_turn_where_the_joint_turns_steadily():
+    q = _turn(np.arange(40) * 2.0)
+    frozen = np.array(q)
+    frozen[10:20] = q[9]  # the values inside the run are never read
+    path = joined_path(frozen, 10, 20)
+    assert path.shape == (10, 4)
+    assert np.degrees(R.geodesic_angle(path, q[10:20])).max() < 1e-6
+    # it leaves at the turn into the run and arrives with the turn out of it: a swing out and back is bent, not a chord
+    swing = _turn(np.concatenate([np.arange(10) * 2.0, 18.0 - np.arange(30) * 2.0]))  # turns back at frame 9
+    bent = np.degrees(R.quaternion_to_rotvec(joined_path(swing, 5, 20))[:, 2])
+    assert bent.max() > 10.0 and bent[-1] < 0.0  # on past its last sample, then back to frame 20's -4 deg
+    assert joined_path(q, 1, 10) is None and joined_path(q, 30, 39) is None  # no turn beyond the take to read
+
+
+def test_a_guess_across_a_freeze_is_kept_only_nearer_the_joined_path_than_the_hold():
+    """A joint held still over frames 20-39 (its input) while it swings 24 deg one way and back: a bridge between the
+    run's ends turning the other way is left; on a steady turn the bridge is the turn itself and is kept."""
+    F = 80
+    t = np.arange(F, dtype=float)
+    truth_deg = np.where((t >= 14) & (t < 46), -24.0 * np.sin(np.pi * (t - 14) / 32.0), 0.0) + 0.5 * t
+    orig = _turn(truth_deg)
+    orig[20:40] = orig[19]  # frozen at frame 19's sample
+    changed = np.zeros(F, dtype=bool)
+    changed[20:40] = True
+    out = np.array(orig)
+    out[20:40] = R.slerp(orig[19], orig[40], (np.arange(20, 40) - 19) / 21.0)
+    err = lambda x: np.degrees(R.geodesic_angle(x[20:40], _turn(truth_deg)[20:40])).mean()  # noqa: E731
+    assert err(out) > err(orig) + 1.0  # the bridge lands further from the swing than the hold does
+    assert guard_joint(orig, out, changed, changed, changed) == []  # smooth and slow: the join rules keep it
+    bad = held_guess_runs(orig, out, changed, changed)
+    assert [(s, e) for s, e, _ in bad] == [(20, 40)] and "freeze" in bad[0][2]
+    assert held_guess_runs(orig, out, changed, changed & (t < 30)) == []  # written in part from a repeat: not judged
+    steady = _turn(0.5 * t)
+    held_steady = np.array(steady)
+    held_steady[20:40] = steady[19]
+    bridge = np.array(held_steady)
+    bridge[20:40] = R.slerp(steady[19], steady[40], (np.arange(20, 40) - 19) / 21.0)
+    assert held_guess_runs(held_steady, bridge, changed, changed) == []
+    assert held_guess_runs(steady, bridge, changed, changed) == []  # not held: the join rules judge it
 
 
 def test_a_bridge_that_turns_a_still_joint_fast_is_left():
@@ -169,6 +210,33 @@ def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
     new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
     assert np.array_equal(new.rotations[205:212, j], ref.rotations[205:212, j])
     assert any(r.joint == "rradius" and r.start <= 205 and r.end >= 212 and "exit" in r.reason for r in left)
+
+
+@pytest.mark.parametrize("take, seed, joint, frames", [
+    ("HDM_bk_rotateArmsBothBackward1Reps_005_120.amc", 1002, "rwrist", (101, 134)),
+    ("HDM_bd_sneak2StepsLStart_001_120.amc", 1001, "rtoes", (102, 127)),
+])
+def test_a_freeze_s_guess_further_from_its_joined_path_is_given_back(shared_data, take, seed, joint, frames):
+    """HDM05 takes with real-style errors, a freeze among them: bk rotateArmsBothBackward's right wrist held over
+    frames 101-133 while it turns 17 deg one way and back (bridged the other way: 9.6 -> 15.8 deg off the clean
+    take), bd sneak2StepsLStart's right toes held over 102-126 (written from the take's own next moment, flexing
+    where the toes extend: 10.8 -> 12.1 deg). Each freeze is given back as it came, named."""
+    path = shared_data / "hdm05_asfamc" / take
+    if not path.is_file():
+        pytest.skip(f"HDM05 {take} not in the shared data")
+    ref = mocapkit.load(path)
+    bad, mask, _ = corrupt.real_errors(ref, n_errors=4, seed=seed)
+    j = ref.skeleton.index(joint)
+    a, b = frames
+    assert mask[a:b, j].all() and held(bad.rotations[:, j], a, b)
+    det = detect_take(bad, None, params=take_params()).detection
+    assert det.flags[a:b, j].all()
+    unguarded, _ = ssa.repair_with_left(bad, det, None, foot_skate=False, guard=False)
+    off = lambda m: np.degrees(R.geodesic_angle(m.rotations[a:b, j], ref.rotations[a:b, j])).mean()  # noqa: E731
+    assert off(unguarded) > off(bad) + 1.0  # the guess lands further from the clean take than the freeze
+    new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    assert np.array_equal(new.rotations[a:b, j], bad.rotations[a:b, j])
+    assert any(r.joint == joint and r.start <= a and r.end >= b and "freeze" in r.reason for r in left)
 
 
 def _bandai_punch():

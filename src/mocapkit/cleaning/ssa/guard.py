@@ -48,6 +48,21 @@ Three more rules, of the run's frames and of a left/right pair rather than of it
   on the right upper arm at frames 251-252, was repaired from frame 250, which came out 16.8 deg off the clean
   take and left 251 37.6 deg off; the left knee's spike at frame 46 put the clean frame 45 8.2 deg off. Such
   a frame is left as it came (named, as below), and the run repaired without it.
+* **A guess across a freeze is kept only where it comes nearer than the hold to the path the joins imply**
+  (:func:`held_guess_runs`): a held run (:func:`held`) that is bridged, or written from the take's own next
+  moment alone (as :func:`open_end_runs` reads it), is judged by no join: the hold joins the take smoothly
+  where it starts and with its own step where it ends, so the rules above let any smooth guess through. Yet
+  the take holds two more facts than a slerp uses: the joint's turn into the run (the frame before it from
+  the one before that) and out of it (the frame after it into the next). The cubic Hermite curve that leaves
+  the last live sample at the first and arrives at the run's next frame with the second (:func:`joined_path`)
+  is the path those joins imply; a guess no nearer to it, on average over the run, than the held input is
+  given back. A run written from a repeat of the motion elsewhere in the take or its context is evidence of
+  its own and is not judged so. HDM05 bk ``rotateArmsBothBackward1Reps`` (``real_errors`` seed 1002): the
+  right wrist frozen over frames 101-133 turns 17 deg one way and back while frozen, and its bridge, turning
+  the other way, comes out 15.8 deg off the clean take where the freeze is 9.6 (7.0 against 3.9 deg from the
+  joined path); bd ``sneak2StepsLStart`` 001 (seed 1001): the right toes' freeze over 102-126, written from
+  the take's own next moment, flexes where the toes extend (12.1 against 10.8 deg off the clean take; 13.5
+  against 12.2 from the path).
 * **A left/right pair is put back together or not at all** (:func:`pair_left`): where the guard leaves a run
   of one joint of a pair (:func:`~mocapkit.joints.mirror_pairs`), the partner's repaired runs over the same
   frames are left too. Two sides that digress over the same frames are most often one error of the pair (a
@@ -74,7 +89,7 @@ from ..ik import contact_segments
 from ...words import frame_span
 
 __all__ = ["LEFT_PREFIX", "LeftRun", "ON_PATH_RATIO", "angular_acceleration", "end_roughness", "guard_joint", "held",
-           "on_path_ends", "open_end_runs", "pair_left", "rougher_end", "roughness"]
+           "held_guess_runs", "joined_path", "on_path_ends", "open_end_runs", "pair_left", "rougher_end", "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
@@ -233,6 +248,58 @@ def open_end_runs(changed: np.ndarray, own_next: np.ndarray) -> list[tuple[int, 
             out.append((int(s), int(e), f"written up to the take's {edge} frame from the take's own next moment: no "
                                         f"frame beyond it nor a repeat of the motion to judge it by"))
     return out
+
+
+def joined_path(q: np.ndarray, start: int, end: int) -> np.ndarray | None:
+    """(end - start, 4) unit quaternions: the path the joins of the run ``start .. end - 1`` of the track ``q`` (F, 4)
+    imply (module docstring); None where the run has no turn on one side to read (``start < 2`` or
+    ``end > F - 2``).
+
+    The cubic Hermite curve, in rotation vectors about ``q[start - 1]`` (radians), from that frame to ``q[end]``
+    over ``end - start + 1`` frame steps, its tangents the joint's turn into the run (``q[start - 2]`` to
+    ``q[start - 1]``) and out of it (``q[end]`` to ``q[end + 1]``), each a turn per frame: the smoothest path that
+    meets both joins at the joint's own position and speed. The values inside the run are never read.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    F = len(q)
+    if start < 2 or end > F - 2 or end <= start:
+        return None
+    base = q[start - 1]
+    rel = R.quaternion_to_rotvec(R.quaternion_multiply(R.quaternion_inverse(base)[None], q[[start - 2, end, end + 1]]))
+    p1 = rel[1]
+    m0, m1 = -rel[0], rel[2] - rel[1]  # radians per frame: the turn into the run and out of it
+    steps = end - start + 1
+    u = (np.arange(start, end) - (start - 1))[:, None] / steps
+    path = (u**3 - 2 * u**2 + u) * steps * m0 + (3 * u**2 - 2 * u**3) * p1 + (u**3 - u**2) * steps * m1
+    return R.quaternion_multiply(base[None], R.rotvec_to_quaternion(path))
+
+
+def held_guess_runs(orig: np.ndarray, out: np.ndarray, changed: np.ndarray,
+                    guess: np.ndarray) -> list[tuple[int, int, str]]:
+    """The held runs of one joint's repair whose guess comes no nearer than the hold to the path their joins imply
+    (module docstring), as ``(start, end, reason)`` (end exclusive).
+
+    ``orig``, ``out`` (F, 4): the joint's input and repaired tracks; ``changed`` (F,) bool: the frames the repair
+    changed (the runs judged are its maximal runs); ``guess`` (F,) bool: the cells no repeat of the motion wrote
+    (bridged, or written from the take's own next moment alone). A run is judged where the input holds the joint
+    bit-still in it (:func:`held`) and every cell of it is a guess; the mean angle (degrees) of the output and of
+    the input from :func:`joined_path` over the run are compared.
+    """
+    orig, out = np.asarray(orig, dtype=np.float64), np.asarray(out, dtype=np.float64)
+    guess = np.asarray(guess, dtype=bool)
+    bad = []
+    for s, e in contact_segments(np.asarray(changed, dtype=bool)):
+        if not (guess[s:e].all() and held(orig, s, e)):
+            continue
+        path = joined_path(orig, s, e)
+        if path is None:
+            continue
+        d_out = float(np.degrees(R.geodesic_angle(out[s:e], path)).mean())
+        d_in = float(np.degrees(R.geodesic_angle(orig[s:e], path)).mean())
+        if d_out >= d_in:
+            bad.append((int(s), int(e), f"a guess across a freeze {d_out:.1f} deg from the path its joins imply, the "
+                                        f"hold {d_in:.1f}"))
+    return bad
 
 
 def on_path_ends(q: np.ndarray, flags: np.ndarray) -> np.ndarray:

@@ -26,7 +26,7 @@ from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
-from .guard import LeftRun, guard_joint, on_path_ends, open_end_runs, pair_left
+from .guard import LeftRun, guard_joint, held_guess_runs, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
 from .swap_exchange import pair_exchange, partner_swaps, swap_exchanges
 from .undo import undone_offsets
@@ -424,7 +424,9 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     bridged ones; ``on_path``: the flagged frames at the runs' ends left on the joint's own path
     (:func:`~mocapkit.cleaning.ssa.guard.on_path_ends`); ``own_next``: the replaced cells whose neighbour
     words were all the take's own motion less than a word from their source word, whose runs at the take's
-    first or last frame are given back (:func:`~mocapkit.cleaning.ssa.guard.open_end_runs`). A run of one side of a left/right pair that fails while
+    first or last frame are given back (:func:`~mocapkit.cleaning.ssa.guard.open_end_runs`), and with the bridged ones
+    make the guesses whose held runs are judged by the path their joins imply
+    (:func:`~mocapkit.cleaning.ssa.guard.held_guess_runs`). A run of one side of a left/right pair that fails while
     its partner digresses over the same frames is put back as a swap where the mirrored exchange joins the take
     (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else its partner's runs over those frames
     that hold a replaced cell are left too (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
@@ -441,6 +443,8 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
         worse = guard_joint(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j], flags[:, j])
         worse += [r for r in open_end_runs(changed[:, j], own_next[:, j])
                   if r[:2] not in {w[:2] for w in worse}]  # a run at the take's edge: no join there to judge it by
+        worse += [r for r in held_guess_runs(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j] | own_next[:, j])
+                  if r[:2] not in {w[:2] for w in worse}]  # a freeze's guess: judged by the path its joins imply
         worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
         failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
         for s, e, why in tiny + worse:
