@@ -946,7 +946,8 @@ def held_joints(
     repeat of the held value: a hold of frames ``a .. b - 1`` flags ``a + 1 .. b - 1``, as
     :func:`~mocapkit.cleaning.ssa.freezes.frozen_channels` does, for frame ``a`` is the last live sample, the one
     the channel holds (HDM05 bd ``sneak2StepsLStart`` 001 with ``real_errors`` seed 1001: the right toes held over
-    frames 102-126 at frame 101's value, which flagged took the repair 4.2 deg off the clean take). Only holds of ``min_frames`` frames or more are flagged; shorter ones still count as recurrences
+    frames 102-126 at frame 101's value, which flagged took the repair 4.2 deg off the clean take). Only holds
+    of ``min_frames`` frames or more are flagged; shorter ones still count as recurrences
     (under the analysis rate: :func:`~mocapkit.cleaning.ssa.coarse_cues.hold_min_frames`).
     """
     q = np.asarray(motion.rotations, dtype=np.float64)
