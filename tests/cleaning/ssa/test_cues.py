@@ -130,9 +130,9 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
         moving[:, j] = 2 * np.pi * 30.0 * np.abs(np.cos(2 * np.pi * t))  # the unfrozen swing's speed, deg/s
         held = ssa.held_joints(m, moving)
         if name == "frozen":
-            assert np.flatnonzero(held[:, j]).tolist() == list(range(300, 340))  # 299: the sample it holds
+            assert np.flatnonzero(held[:, j]).tolist() == list(range(299, 340))
         elif name == "at_peak":
-            assert np.flatnonzero(held[:, j]).tolist() == list(range(peak + 1, peak + 40))
+            assert np.flatnonzero(held[:, j]).tolist() == list(range(peak, peak + 40))
         else:
             assert (clamped == -20.0).sum() > 100 and not held.any()
     rest = swing.copy()
@@ -141,7 +141,7 @@ def test_held_joints_find_a_frozen_channel_and_leave_motion_alone(walk):
     assert not ssa.held_joints(m, moving).any()
     rest[300:340] = 0.05  # the same hold a twentieth of a degree off the rest pose is a freeze
     m, j = swinging(walk, "LeftElbow", rest)
-    assert np.flatnonzero(ssa.held_joints(m, moving)[:, j]).tolist() == list(range(301, 340))
+    assert np.flatnonzero(ssa.held_joints(m, moving)[:, j]).tolist() == list(range(300, 340))
     m, j = swinging(walk, "LeftElbow", frozen)
     still_context = moving.copy()
     still_context[:, j] = 0.0  # the similar motion holds there too: no error

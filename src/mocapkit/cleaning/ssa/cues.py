@@ -943,11 +943,9 @@ def held_joints(
     knee sits at exactly 0 for its last 2 s); a frozen channel repeats the
     arbitrary last value it had, never exactly the rest pose. Where a frozen
     joint starts the digression is still small; this finds it from the first
-    repeat of the held value: a hold of frames ``a .. b - 1`` flags ``a + 1 .. b - 1``, as
-    :func:`~mocapkit.cleaning.ssa.freezes.frozen_channels` does, for frame ``a`` is the last live sample, the one
-    the channel holds (HDM05 bd ``sneak2StepsLStart`` 001 with ``real_errors`` seed 1001: the right toes held over
-    frames 102-126 at frame 101's value, which flagged took the repair 4.2 deg off the clean take). Only holds
-    of ``min_frames`` frames or more are flagged; shorter ones still count as recurrences
+    held frame (detection flags its repeats only:
+    :func:`~mocapkit.cleaning.ssa.freeze_bounds.held_repeats`). Only holds of ``min_frames`` frames or more are
+    flagged; shorter ones still count as recurrences
     (under the analysis rate: :func:`~mocapkit.cleaning.ssa.coarse_cues.hold_min_frames`).
     """
     q = np.asarray(motion.rotations, dtype=np.float64)
@@ -986,5 +984,5 @@ def held_joints(
         at_rest = R.geodesic_angle(held, R.identity()) <= np.radians(rest_deg)
         for (a, b), exempt in zip(runs, recurring(held, recur) | at_rest):
             if not exempt and b - a >= min_frames and travel[a:b, j].sum() >= travel_deg:
-                out[a + 1 : b, j] = True
+                out[a:b, j] = True
     return out

@@ -42,7 +42,7 @@ from .drifts import group_agreement, group_offset_change, not_looked_for, smooth
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
-from .freeze_bounds import bounded_holds
+from .freeze_bounds import bounded_holds, held_repeats
 from .freezes import frozen_channels
 from .recurring_peaks import recurring_breaks
 from .reversals import reversed_runs
@@ -711,6 +711,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     holds = held_joints(motion, mean_speed, travel_deg=p.hold_travel_deg,
                         min_frames=hold_min_frames(motion.fps, p.analysis_fps)) & analysed[None, :]
     holds = without_turning_points(q, holds)  # still for one step where it turns back: its swing's end, not a freeze
+    holds = held_repeats(holds)  # a hold's first frame is the live sample it repeats (freeze_bounds.py)
     # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
     frozen = frozen_channels(q, own, analysed, motion.fps)
     holds = bounded_holds(holds, frozen)  # a hold that holds a freeze: its repeats, not the sample it froze at
