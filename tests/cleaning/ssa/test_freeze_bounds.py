@@ -76,11 +76,11 @@ def test_a_hold_that_holds_a_freeze_keeps_its_frozen_cells_and_other_holds_stay_
 def test_a_hold_flags_its_repeats_not_the_sample_it_holds():
     holds = np.zeros((12, 3), dtype=bool)
     holds[2:6, 0] = True  # a hold of frames 2-5: frame 2 is the sample frames 3-5 repeat
-    holds[7:8, 1] = True  # a run of one frame: nothing repeated
+    holds[7:9, 1] = True  # one still step: nothing shows which frame is held, kept whole
     holds[0:3, 2] = True  # a hold from the take's first frame
     out = held_repeats(holds)
     assert np.flatnonzero(out[:, 0]).tolist() == [3, 4, 5]
-    assert not out[:, 1].any() and np.flatnonzero(out[:, 2]).tolist() == [1, 2]
+    assert np.flatnonzero(out[:, 1]).tolist() == [7, 8] and np.flatnonzero(out[:, 2]).tolist() == [1, 2]
 
 
 def test_a_held_toe_s_live_sample_is_not_flagged(shared_data):

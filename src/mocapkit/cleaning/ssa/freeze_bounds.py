@@ -93,8 +93,23 @@ def bounded_holds(holds: np.ndarray, frozen) -> np.ndarray:
 
 def held_repeats(holds: np.ndarray) -> np.ndarray:
     """(F, J) bool: ``holds`` (F, J) bool, :func:`~mocapkit.cleaning.ssa.cues.held_joints`' cells, less the first
-    frame of each run of held cells: the live sample the hold repeats (module docstring). A run of one frame goes."""
+    frame of each run of three held frames or more: the live sample the hold repeats (module docstring).
+
+    A run of two frames (one still step, the shortest hold at 24-30 fps) is kept whole: its repeats hold no still
+    step of their own, so nothing shows which of the two frames the channel holds (CMU charleston2 at 30 fps: the
+    left wrist still for one step at frames 129-130 as it slows, 0.015 deg, whose repair of frame 130 alone moved a
+    clean frame 1.4 deg where the repair of both is given back by the guard).
+    """
     holds = np.asarray(holds, dtype=bool)
-    out = np.zeros_like(holds)
-    out[1:] = holds[1:] & holds[:-1]
+    out = holds.copy()
+    F = len(holds)
+    if F < 3:
+        return out
+    prev = np.zeros_like(holds)
+    prev[1:] = holds[:-1]
+    nxt = np.zeros_like(holds)
+    nxt[:-1] = holds[1:]
+    nxt2 = np.zeros_like(holds)
+    nxt2[:-2] = holds[2:]
+    out[holds & ~prev & nxt & nxt2] = False  # the first frame of a run of three or more
     return out
