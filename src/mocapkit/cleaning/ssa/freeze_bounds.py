@@ -14,8 +14,8 @@ repaired too, up to 33.8 deg away from the capture. Two rules here:
   in a hold that holds a frozen stretch are kept on the frozen frames (:func:`bounded_holds`); a hold's
   first frame is the last live sample, the one the channel froze at, and is right.
 
-And for every hold, frozen bit for bit or not: **a hold's first frame is the sample it holds**
-(:func:`held_repeats`): a held joint's flags are its repeats, as a frozen channel's are. A hold that no
+And for every hold of three frames or more, frozen bit for bit or not: **a hold's first frame is the sample it
+holds** (:func:`held_repeats`): a held joint's flags are its repeats, as a frozen channel's are. A hold that no
 exact-freeze rule bounds (its exit no break of the joint's own) otherwise has that live sample repaired too:
 HDM05 bd ``sneak2StepsLStart`` 001 with ``real_errors`` seed 1001, the right toes held over frames 102-126 at
 frame 101's value, whose repair from frame 101 put that clean frame 4.2 deg off the clean take.
