@@ -10,7 +10,7 @@ from mocapkit import rotations as R
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.ssa.cues import event_bounds, midpoint_residuals, own_breaks
 from mocapkit.cleaning.ssa.recurring_peaks import recurring_breaks
-from mocapkit.cleaning.ssa.smooth_turns import coarse_turn, smooth_turn, smooth_turn_breaks
+from mocapkit.cleaning.ssa.smooth_turns import COARSE_SHARE, coarse_share, coarse_turn, smooth_turn, smooth_turn_breaks
 
 JUMP = 8.0  # SSAParams().jump_deg
 
@@ -174,6 +174,56 @@ def test_a_spike_step_or_held_frame_at_30_fps_is_no_coarse_turn():
     small = _track(np.r_[pace, 20.0, 20.0, 20.0, 45.0, 5.0, pace])  # under what limb motion makes at 30 fps
     resid = midpoint_residuals(small[:, None])[:, 0]
     assert _events(small) and not any(coarse_turn(small, resid, a, b, 30.0) for a, b in _events(small))
+
+
+def test_the_share_a_coarse_turns_steps_reach_falls_with_the_rate_under_30_fps():
+    """A turn's midpoint residual grows with the square of the frame time, its steps with the frame time."""
+    assert coarse_share(30.0) == coarse_share(120.0) == COARSE_SHARE
+    assert coarse_share(24.0) == pytest.approx(0.6) and coarse_share(20.0) == pytest.approx(0.5)
+    # a wrist turning 70 and 94 deg and 125 deg back in three frames at 24 fps (110 deg residual: 131_03's flick)
+    flick = _track(np.r_[np.full(15, 6.0), 70.0, 94.0, -125.0, np.full(15, -6.0)])
+    resid = midpoint_residuals(flick[:, None])[:, 0]
+    assert all(coarse_turn(flick, resid, a, b, 24.0) for a, b in _events(flick))
+    assert not any(coarse_turn(flick, resid, a, b, 30.0) for a, b in _events(flick))
+
+
+def test_the_walks_thumb_turn_at_24_fps_is_a_coarse_turn(walk):
+    """131_01 at 24 fps (every 5th frame from frame 1): the right thumb turns 46, 74 and 40 deg in three frames
+    (60-63) around a 57 deg residual at frame 62; 3/4 of it (43 deg) is more than the arm's 40 deg step, 0.6 of it
+    (34 deg, the share at 24 fps) is not."""
+    low = walk[1::5]
+    q, resid, breaks = _breaks_at(low)
+    j = low.skeleton.index("RThumb")
+    assert low.fps == 24.0 and breaks[62, j]
+    assert coarse_turn(q[:, j], resid[:, j], 62, 62, low.fps)
+    assert not smooth_turn_breaks(q, resid, breaks, JUMP, low.skeleton.parents, low.fps)[60:65, j].any()
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_every_injected_error_still_breaks_at_24_and_20_fps(walk, seed):
+    for k in (5, 6):  # every 5th and 6th frame: 24 and 20 fps
+        bad, mask, records = corrupt.real_errors(walk[::k], n_errors=6, seed=seed)
+        q, resid, breaks = _breaks_at(bad)
+        kept = smooth_turn_breaks(q, resid, breaks, JUMP, bad.skeleton.parents, bad.fps)
+        for r in records:
+            j = bad.skeleton.index(r.joint)
+            near = slice(max(r.start - 2, 0), r.end + 2)
+            assert kept[near, j].any() == breaks[near, j].any(), (k, r)
+
+
+def test_clean_leaves_131_03s_wrist_flick_at_24_fps_untouched(shared_data):
+    """CMU 131_03 at 24 fps (mocapkit convert --fps 24: every 5th frame): the wrist turns 71, 94 and 125 deg in three
+    frames (49-52) around a 108 deg residual; clean moved RightWrist frames 50-53 by up to 155 deg."""
+    import mocapkit
+
+    path = shared_data / "cmu_bvh" / "131_03.bvh"
+    if not path.is_file():
+        pytest.skip("CMU 131_03 not in the shared data")
+    low = mocapkit.load(path).resample(24.0)
+    res = clean(low)
+    j = low.skeleton.index("RightWrist")
+    assert not res.flags[:, j].any()
+    assert np.array_equal(res.motion.rotations[:, j], low.rotations[:, j])
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -51,6 +51,22 @@ HDM05 clip (280) and 446 Bandai Namco takes (two of every 12) keep every break; 
 wrist flicks, one thumb step of 131_01 and one arm swing of the backflip go. What it costs, at 24-30 fps only: an
 error on a joint already turning three quarters of the error's size a frame, right where it turns, confirms nothing
 (a 60 deg spike on a wrist turning 45 deg a frame, a flip on one turning 68 deg a frame).
+
+Under 30 fps that share falls with the rate (:func:`coarse_share`: 0.6 at 24 fps, 0.5 at 20). A turn's midpoint
+residual is second order in the frame time and its steps first order (``|alpha| dt^2 / 2`` against ``|omega| dt``),
+so where a frame is longer the same turn's residual grows more than the steps around it: CMU 131_03 at 24 fps
+(every 5th frame, as ``mocapkit convert --fps 24`` delivers it) turns the right wrist 71, 94 and 125 deg in three
+frames (49-52) around a residual of 108 deg, its arm's step into the flick 0.66 of it, where at 30 fps the same flick
+turns 87, 74 and 115 deg around 84 deg. Measured at 24 and 20 fps on 26 takes (the three 131 takes, the nine CMU
+ASF/AMC takes, every 20th HDM05 clip) and held out on 35 (14 other HDM05 clips, every 150th Bandai Namco take, three
+secondary Bandai Namco clips), with the errors of :func:`mocapkit.corrupt.real_errors` (three seeds, six errors
+each): none of the 2,769 break events of the errors becomes a coarse turn; three clean events do (131_03's wrist
+flick at 24 fps, the backflip's right hand at 24 and left arm at 20), none of the held-out takes'. The rate also
+decides how much of a flick its samples keep, and where it falls between two frames the flick is one or two steps of
+100-125 deg beside the joint's own pace (every 5th frame of 131_01 from its frame 3 or 4 and of 131_03 from its
+frame 4; every 6th of 131_01 from frame 4 or 5 and of 131_03 from frame 1 or 2): an error's step to this rule, which
+leaves it a break. At 15 fps and under the test is hardly asked: a residual must pass what limb motion makes at the
+rate (``MAX_ACCEL_DEG_S2 / (2 fps^2)``: 133 deg at 15 fps, more than any turn at 12).
 """
 
 from __future__ import annotations
@@ -61,8 +77,8 @@ from ... import rotations as R
 from .cues import MAX_ACCEL_DEG_S2
 from .events import event_bounds
 
-__all__ = ["CHAIN_DEPTH", "COARSE_RUN", "COARSE_SHARE", "SPEED_RATIO", "TURN_BACK_DEG", "coarse_turn", "smooth_turn",
-           "smooth_turn_breaks"]
+__all__ = ["CHAIN_DEPTH", "COARSE_FPS", "COARSE_RUN", "COARSE_SHARE", "SPEED_RATIO", "TURN_BACK_DEG", "coarse_share",
+           "coarse_turn", "smooth_turn", "smooth_turn_breaks"]
 
 #: the most one step of a smooth turn may be of the step beside it, either way (131_01's flick: 2.9, as its
 #: 34 deg step slows to 12; every injected error's event over 4.8)
@@ -71,8 +87,11 @@ SPEED_RATIO = 4.0
 TURN_BACK_DEG = 90.0
 #: successive fast steps a coarsely sampled turn makes at least (an error's step: one; a spike out and back: two)
 COARSE_RUN = 3
-#: a fast step of a coarsely sampled turn: at least this share of the event's largest midpoint residual
+#: a fast step of a coarsely sampled turn at :data:`COARSE_FPS`: at least this share of the event's largest midpoint
+#: residual (:func:`coarse_share` at other rates)
 COARSE_SHARE = 0.75
+#: the rate :data:`COARSE_SHARE` holds at (frames per second; under it the share falls in proportion to the rate)
+COARSE_FPS = 30.0
 #: how many joints up the chain :func:`smooth_turn_breaks` looks for a break that moves the joint
 CHAIN_DEPTH = 3
 
@@ -103,6 +122,18 @@ def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_de
     return bool((cos > np.cos(np.radians(TURN_BACK_DEG))).all())
 
 
+def coarse_share(fps: float) -> float:
+    """The share of a break event's largest midpoint residual each step of a coarsely sampled turn reaches at ``fps``.
+
+    :data:`COARSE_SHARE` at :data:`COARSE_FPS` and over; under it, that share times ``fps / COARSE_FPS`` (0.6 at 24
+    fps, 0.5 at 20). The midpoint residual of a turn is second order in the frame time and its steps are first order
+    (:func:`~mocapkit.cleaning.ssa.cues.discontinuities`: ``|alpha| dt^2 / 2`` against ``|omega| dt``), so at a lower
+    rate the same turn's residual grows by the square of the frame time's growth and its steps by the growth alone:
+    the share its steps reach of its residual falls in proportion to the rate (module docstring).
+    """
+    return COARSE_SHARE * min(1.0, float(fps) / COARSE_FPS)
+
+
 def coarse_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, fps: float) -> bool:
     """Whether the break event ``first .. last`` (frames) of one joint's track is a fast turn sampled coarsely.
 
@@ -112,9 +143,9 @@ def coarse_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, fps: fl
     explains, :func:`~mocapkit.cleaning.ssa.cues.motion_explained`; those under it are that rule's and
     :mod:`~mocapkit.cleaning.ssa.recurring_peaks`'), and the steps read, ``q[first - 2] -> q[first - 1]`` to
     ``q[last + 1] -> q[last + 2]`` as :func:`smooth_turn` reads them, hold :data:`COARSE_RUN` successive ones or more
-    that each turn at least :data:`COARSE_SHARE` of that residual, none held (module docstring). An event too near
-    the take's ends for them is not one (kept as a break). Over about 60 fps no limb motion breaks at all:
-    :func:`smooth_turn_breaks` asks it under that only.
+    that each turn at least :func:`coarse_share` of that residual at the take's rate, none held (module docstring).
+    An event too near the take's ends for them is not one (kept as a break). Over about 60 fps no limb motion breaks
+    at all: :func:`smooth_turn_breaks` asks it under that only.
     """
     F = len(q)
     if first < 2 or last + 2 >= F:
@@ -128,7 +159,7 @@ def coarse_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, fps: fl
     s = R.geodesic_angle(seg[1:], seg[:-1])  # (last - first + 4,) radians
     if (s <= 0.0).any():
         return False  # a held frame: a freeze let go, not a turn
-    fast = s >= COARSE_SHARE * peak
+    fast = s >= coarse_share(fps) * peak
     run = longest = 0
     for f in fast:
         run = run + 1 if f else 0
