@@ -180,11 +180,16 @@ def test_the_share_a_coarse_turns_steps_reach_falls_with_the_rate_under_30_fps()
     """A turn's midpoint residual grows with the square of the frame time, its steps with the frame time."""
     assert coarse_share(30.0) == coarse_share(120.0) == COARSE_SHARE
     assert coarse_share(24.0) == pytest.approx(0.6) and coarse_share(20.0) == pytest.approx(0.5)
+    assert coarse_share(15.0) == pytest.approx(2.0 / 3.0)  # a frame longer than a fast turn: the share rises again
     # a wrist turning 70 and 94 deg and 125 deg back in three frames at 24 fps (110 deg residual: 131_03's flick)
     flick = _track(np.r_[np.full(15, 6.0), 70.0, 94.0, -125.0, np.full(15, -6.0)])
     resid = midpoint_residuals(flick[:, None])[:, 0]
     assert all(coarse_turn(flick, resid, a, b, 24.0) for a, b in _events(flick))
     assert not any(coarse_turn(flick, resid, a, b, 30.0) for a, b in _events(flick))
+    # at 15 fps a 170 deg spike out and back on a joint stepping 80 deg into it stays a break
+    spike = _track(np.r_[np.full(15, 20.0), 80.0, 170.0, -170.0, np.full(15, 20.0)])
+    resid = midpoint_residuals(spike[:, None])[:, 0]
+    assert _events(spike) and not any(coarse_turn(spike, resid, a, b, 15.0) for a, b in _events(spike))
 
 
 def test_the_walks_thumb_turn_at_24_fps_is_a_coarse_turn(walk):

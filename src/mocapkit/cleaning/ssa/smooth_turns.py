@@ -57,16 +57,20 @@ residual is second order in the frame time and its steps first order (``|alpha| 
 so where a frame is longer the same turn's residual grows more than the steps around it: CMU 131_03 at 24 fps
 (every 5th frame, as ``mocapkit convert --fps 24`` delivers it) turns the right wrist 71, 94 and 125 deg in three
 frames (49-52) around a residual of 108 deg, its arm's step into the flick 0.66 of it, where at 30 fps the same flick
-turns 87, 74 and 115 deg around 84 deg. Measured at 24 and 20 fps on 26 takes (the three 131 takes, the nine CMU
-ASF/AMC takes, every 20th HDM05 clip) and held out on 35 (14 other HDM05 clips, every 150th Bandai Namco take, three
-secondary Bandai Namco clips), with the errors of :func:`mocapkit.corrupt.real_errors` (three seeds, six errors
-each): none of the 2,769 break events of the errors becomes a coarse turn; three clean events do (131_03's wrist
-flick at 24 fps, the backflip's right hand at 24 and left arm at 20), none of the held-out takes'. The rate also
-decides how much of a flick its samples keep, and where it falls between two frames the flick is one or two steps of
-100-125 deg beside the joint's own pace (every 5th frame of 131_01 from its frame 3 or 4 and of 131_03 from its
-frame 4; every 6th of 131_01 from frame 4 or 5 and of 131_03 from frame 1 or 2): an error's step to this rule, which
-leaves it a break. At 15 fps and under the test is hardly asked: a residual must pass what limb motion makes at the
-rate (``MAX_ACCEL_DEG_S2 / (2 fps^2)``: 133 deg at 15 fps, more than any turn at 12).
+turns 87, 74 and 115 deg around 84 deg. That holds while a frame is shorter than a fast turn (:data:`FAST_TURN_S`,
+0.05 s: 20 fps); under that rate the turn falls within one frame, its residual grows no more while the joint's steps
+beside it do, and the share rises again (0.67 at 15 fps). Measured at 24, 20 and 15 fps on 26 takes (the three 131
+takes, the nine CMU ASF/AMC takes, every 20th HDM05 clip) and held out on 35 (14 other HDM05 clips, every 150th
+Bandai Namco take, three secondary Bandai Namco clips), with the errors of :func:`mocapkit.corrupt.real_errors`
+(three seeds, six errors each): none of the 2,769 break events of the errors at 24 and 20 fps becomes a coarse turn;
+three clean events do (131_03's wrist flick at 24 fps, the backflip's right hand at 24 and left arm at 20), none of
+the held-out takes'; at 15 fps the same events are coarse turns as with three quarters (a share falling on to 0.375
+there would take the breaks of three errors, steps of 150-180 deg out and back beside the joint's 50-80). The rate also decides how much of a
+flick its samples keep, and where it falls between two frames the flick is one or two steps of 100-125 deg beside
+the joint's own pace (every 5th frame of 131_01 from its frame 3 or 4 and of 131_03 from its frame 4; every 6th of
+131_01 from frame 4 or 5 and of 131_03 from frame 1 or 2): an error's step to this rule, which leaves it a break. At
+15 fps and under the test is seldom asked: a residual must pass what limb motion makes at the rate
+(``MAX_ACCEL_DEG_S2 / (2 fps^2)``: 133 deg at 15 fps, more than any turn at 12).
 """
 
 from __future__ import annotations
@@ -77,8 +81,8 @@ from ... import rotations as R
 from .cues import MAX_ACCEL_DEG_S2
 from .events import event_bounds
 
-__all__ = ["CHAIN_DEPTH", "COARSE_FPS", "COARSE_RUN", "COARSE_SHARE", "SPEED_RATIO", "TURN_BACK_DEG", "coarse_share",
-           "coarse_turn", "smooth_turn", "smooth_turn_breaks"]
+__all__ = ["CHAIN_DEPTH", "COARSE_FPS", "COARSE_RUN", "COARSE_SHARE", "FAST_TURN_S", "SPEED_RATIO", "TURN_BACK_DEG",
+           "coarse_share", "coarse_turn", "smooth_turn", "smooth_turn_breaks"]
 
 #: the most one step of a smooth turn may be of the step beside it, either way (131_01's flick: 2.9, as its
 #: 34 deg step slows to 12; every injected error's event over 4.8)
@@ -92,6 +96,9 @@ COARSE_RUN = 3
 COARSE_SHARE = 0.75
 #: the rate :data:`COARSE_SHARE` holds at (frames per second; under it the share falls in proportion to the rate)
 COARSE_FPS = 30.0
+#: how long a fast turn lasts, seconds: 131_01's wrist flick turns 10-55 deg a frame for 6 frames at 120 fps; at
+#: rates under its inverse (20 fps) the whole turn falls within one frame (:func:`coarse_share`)
+FAST_TURN_S = 0.05
 #: how many joints up the chain :func:`smooth_turn_breaks` looks for a break that moves the joint
 CHAIN_DEPTH = 3
 
@@ -125,13 +132,20 @@ def smooth_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, jump_de
 def coarse_share(fps: float) -> float:
     """The share of a break event's largest midpoint residual each step of a coarsely sampled turn reaches at ``fps``.
 
-    :data:`COARSE_SHARE` at :data:`COARSE_FPS` and over; under it, that share times ``fps / COARSE_FPS`` (0.6 at 24
-    fps, 0.5 at 20). The midpoint residual of a turn is second order in the frame time and its steps are first order
-    (:func:`~mocapkit.cleaning.ssa.cues.discontinuities`: ``|alpha| dt^2 / 2`` against ``|omega| dt``), so at a lower
-    rate the same turn's residual grows by the square of the frame time's growth and its steps by the growth alone:
-    the share its steps reach of its residual falls in proportion to the rate (module docstring).
+    :data:`COARSE_SHARE` at :data:`COARSE_FPS` and over; under it, that share times ``fps / COARSE_FPS`` down to
+    ``1 / FAST_TURN_S`` (0.6 at 24 fps, 0.5 at 20), and under that 0.5 times ``20 / fps`` (0.67 at 15 fps). While a
+    frame is shorter than a fast turn, the turn's midpoint residual is second order in the frame time and its steps
+    first order (:func:`~mocapkit.cleaning.ssa.cues.discontinuities`: ``|alpha| dt^2 / 2`` against ``|omega| dt``):
+    at a lower rate the residual grows by the square of the frame time's growth, the steps by the growth alone, and
+    the share the steps reach of the residual falls in proportion to the rate. Once a frame spans the whole turn
+    (:data:`FAST_TURN_S`), the turn is a step between two frames: its residual grows no more, while the joint's own
+    steps beside it still grow with the frame time, and the share rises in proportion to the frame time.
     """
-    return COARSE_SHARE * min(1.0, float(fps) / COARSE_FPS)
+    rate = min(float(fps), COARSE_FPS)
+    edge = 1.0 / FAST_TURN_S
+    if rate >= edge:
+        return COARSE_SHARE * rate / COARSE_FPS
+    return COARSE_SHARE * (edge / COARSE_FPS) * (edge / rate)
 
 
 def coarse_turn(q: np.ndarray, resid: np.ndarray, first: int, last: int, fps: float) -> bool:
