@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -116,12 +117,22 @@ def _corpus(d: Path) -> Path:
     return src
 
 
-def test_clean_batch_serial_resume_and_failure(tmp_path, capsys):
-    src = _corpus(tmp_path)
+@pytest.fixture(scope="module")
+def serial_batch(tmp_path_factory):
+    """The corpus cleaned once by a serial ``clean-batch --steps fill,denoise``: the run the serial test checks and
+    resumes (on a copy of its outputs) and the reference the Dask run must equal. ``(in folder, its files' hashes
+    before the run, out folder, exit status, stdout)``."""
+    d = tmp_path_factory.mktemp("batch")
+    src = _corpus(d)
     inputs = _tree(src)
+    rc, text, _ = helpers.run("clean-batch", src, d / "out", "--executor", "serial", "--steps", "fill,denoise")
+    return src, inputs, d / "out", rc, text
+
+
+def test_clean_batch_serial_resume_and_failure(serial_batch, tmp_path, capsys):
+    src, inputs, first, rc, text = serial_batch
     out = tmp_path / "out"
-    rc = main(["clean-batch", str(src), str(out), "--executor", "serial", "--steps", "fill,denoise"])
-    text = capsys.readouterr().out
+    shutil.copytree(first, out)  # the resume below changes it; copy2 keeps the time stamps the resume is judged by
     assert rc == 1, text  # one take failed
     assert "failed" in text and "broken.bvh" in text and "3 cleaned" in text
     # one line per take: what was found and fixed, or why it failed
@@ -171,7 +182,7 @@ def test_a_failed_batch_row_names_the_input_once(tmp_path, capsys):
     assert re.match(rf"failed  {re.escape(bad)}:\d+: truncated file", failed[0]), failed
 
 
-def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
+def test_clean_batch_on_local_dask_cluster(serial_batch, tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
     src = _corpus(tmp_path)
     (src / "hdm" / "broken.bvh").unlink()
@@ -184,9 +195,7 @@ def test_clean_batch_on_local_dask_cluster(tmp_path, capsys):
     # each take's line as it finished, counted (stdout is no terminal here), then the totals
     assert [(ln[:len("cleaned ")], ln[-len(" [k/3]"):]) for ln in text.splitlines()[:3]] == \
         [("cleaned ", f" [{k}/3]") for k in (1, 2, 3)]
-    serial = tmp_path / "serial"
-    assert main(["clean-batch", str(src), str(serial), "--executor", "serial", "--steps", "fill,denoise"]) == 0
-    capsys.readouterr()
+    serial = serial_batch[2]  # the same takes cleaned by the serial executor
     for rel in ("cmu/walk.npz", "cmu/131_01.bvh", "hdm/bk/sneak.npz"):
         a, b = mocapkit.load(out / rel), mocapkit.load(serial / rel)
         assert np.allclose(a.rotations, b.rotations, atol=1e-6), rel  # same result wherever it ran
