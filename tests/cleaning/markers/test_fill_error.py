@@ -108,3 +108,46 @@ def test_a_fast_wrist_with_its_neighbours_hidden_is_not_called_a_good_fill(share
     _, records = fill_gaps(pos, markers=[wrist], max_error=20.0)  # no model alone passes for a good fill either
     (fill,) = [r for r in records if r.start == 638]
     assert not fill.filled and "over the 20 mm" in fill.implausible
+
+
+def test_each_model_is_fitted_once_per_stretch_across_the_fills_tried(take, monkeypatch):
+    # LWRA hidden 300-339 and a limit no fill meets: the average and then each model alone are tried, each with its
+    # expected error measured on the same stretches. A model of the average tried alone is not fitted there again
+    # (03_rolling.c3d: 1,105 fills of stretches, where fitting each model again makes 1,208)
+    from mocapkit.cleaning.markers import gaps
+
+    pos, labels = _cut(take, [("Male:LWRA", 300, 340)])
+    fitted = []
+    real = gaps._fills
+
+    def counted(p, m, a, b, models, *args, **kwargs):
+        fitted.extend((a, b, model) for model in models)
+        return real(p, m, a, b, models, *args, **kwargs)
+
+    monkeypatch.setattr(gaps, "_fills", counted)
+    _, records = fill_gaps(pos, markers=[labels.index("Male:LWRA")], max_error=1e-9, strict=True)
+    assert len(records) == 1 and not records[0].filled  # every fill tried, none within the limit
+    tried = {}
+    for key in fitted:
+        tried[key] = tried.get(key, 0) + 1
+    assert len(tried) > 20 and max(tried.values()) == 1, sorted(k for k, n in tried.items() if n > 1)[:3]
+
+
+def test_regression_fits_the_moving_frame_only_where_it_is_used(take, monkeypatch):
+    # LWRA hidden 300-339 and 500-539: the regression for the first gap trains on the window's frames where LWRA is
+    # seen and fills 299-340; the donors' frame at 500-539 (LWRA unseen, not filled) is used by neither
+    from mocapkit.cleaning.markers import gaps
+
+    pos, labels = _cut(take, [("Male:LWRA", 300, 340), ("Male:LWRA", 500, 540)])
+    m = labels.index("Male:LWRA")
+    sizes = []
+    real = gaps.local_frames
+
+    def counted(d, ref=None):
+        sizes.append(len(d))
+        return real(d, ref)
+
+    monkeypatch.setattr(gaps, "local_frames", counted)
+    donors = [labels.index(x) for x in ("Male:LWRB", "Male:LFIN", "Male:LFRM")]
+    fits = gaps._regress_fill(pos, m, 300, 340, donors, [labels.index("Male:LELB")], gaps.RIDGES)
+    assert fits is not None and sizes == [pos.shape[0] - 40]  # the take (810 frames, all in the window) less 500-539

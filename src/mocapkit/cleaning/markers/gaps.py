@@ -351,7 +351,10 @@ def _regress_fill(pos: np.ndarray, m: int, a: int, b: int, donors, predictors, r
     train[a - lo:b - lo] = False
     if np.count_nonzero(train) < max(30, 3 * len(predictors) + 5):
         return None
-    use = okp  # frames whose moving frame is needed: training and the gap with its ends
+    # frames whose moving frame is needed: training (the marker seen) and the gap with its ends; a frame where only
+    # the marker is unseen is neither, and each frame's Kabsch fit is its own (the others' are the same bits without it)
+    use = okp & okm
+    use[first - lo:last + 1 - lo] = True
     rot, origin = local_frames(d[use], ref)
     locp = np.einsum("tji,tpj->tpi", rot, pr[use] - origin[:, None, :]).reshape(len(rot), -1)
     loct = to_local(np.where(okm[use][:, None], tgt[use], 0.0), rot, origin)
@@ -773,6 +776,7 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     first = None
     wide = _validation_spans(pos, m, a, b, SPANS) if usable else []
     parted = 1.0  # how much further the average's models part in the gap: a single model tried next keeps it
+    made: dict = {}  # each model's fills of the stretches the expected error is measured on, for every fill tried
     for k, (est, method, donors, ranked, validated) in enumerate(tries):
         if k and len(tries) > 1 and np.array_equal(est, tries[0][0]):
             continue  # the average of one model is that model: tried already
@@ -783,8 +787,8 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
             known = ({} if any(models[i][1] == "lowrank" for i in chosen) else
                      {span: [c[i] for i in chosen] for span, c in zip(spans, checks)})
             expected, basis, parted = expected_error(pos, m, a, b, wide, [fills[i] for i in chosen], weights,
-                                                     _recipe(m, [models[i] for i in chosen], order, stats, side,
-                                                             known), parted)
+                                                     _recipe(m, models, chosen, order, stats, side, known, made),
+                                                     parted)
         why = ""
         # a limit given is checked on the expected error (an unknown one fails it); the default limits on the error
         # on the two stretches that rank the models, as before 0.18.0: a take cleaned without a limit is unchanged
@@ -809,12 +813,26 @@ def _fill_one(pos, out, m, a, b, order, stats, candidates, keep, predictors, con
     return first
 
 
-def _recipe(m: int, models, order: np.ndarray, stats: DistanceStats, side: int, known=None):
-    """The written fill's recipe as a function ``(pos, s, e)`` -> each of ``models``' fills of marker m's frames
-    s..e-1 (None where one cannot fill them), as the gap's were made (``side``: from one end). ``known``:
-    {(s, e): those fills} already made (the ranking's stretches, where the gap's hidden markers change none)."""
+def _recipe(m: int, models, chosen, order: np.ndarray, stats: DistanceStats, side: int, known=None, made=None):
+    """The written fill's recipe as a function ``(pos, s, e)`` -> the fills of marker m's frames s..e-1 by the
+    ``chosen`` of ``models`` (None where one cannot fill them), as the gap's were made (``side``: from one end).
+    ``known``: {(s, e): those fills} already made (the ranking's stretches, where the gap's hidden markers change
+    none). ``made``: {(s, e, i): model i's fill} kept across the fills tried for one gap, whose stretches all get the
+    same take with the same missing pattern copied on (:func:`~mocapkit.cleaning.markers.fill_error.span_errors`):
+    a model tried alone after the average that failed is not fitted again on the stretches the average measured it
+    on. Each model's fill is its own (:func:`_fills`), so it is the same bits fitted with the others or alone."""
     known = known or {}
-    return lambda pos, s, e: known[(s, e)] if (s, e) in known else _fills(pos, m, s, e, models, order, stats, side)
+    made = {} if made is None else made
+
+    def fill(pos, s, e):
+        if (s, e) in known:
+            return known[(s, e)]
+        todo = [i for i in chosen if (s, e, i) not in made]
+        if todo:
+            made.update(((s, e, i), est) for i, est in
+                        zip(todo, _fills(pos, m, s, e, [models[i] for i in todo], order, stats, side)))
+        return [made[(s, e, i)] for i in chosen]
+    return fill
 
 
 def _method(model) -> str:
