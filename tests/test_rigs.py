@@ -392,6 +392,40 @@ def test_a_namespace_before_every_joint_name_is_set_aside_for_the_family(prefix)
     assert rigs.rig_family(ns) == "bandai_namco" and rigs.family_prefix(ns) == prefix
 
 
+def dag_paths(sk: Skeleton, namespace: str = "", leading: str = "|") -> tuple[str, ...]:
+    """``sk``'s joint names as Maya writes each joint by its full DAG path: ``|Root|Hips|Spine`` (``leading`` the
+    path's first ``|``), every part under ``namespace`` (``|Character1:Root|Character1:Hips``)."""
+    paths: list[str] = []
+    for j, n in enumerate(sk.joint_names):
+        p = int(sk.parents[j])
+        paths.append((leading if p < 0 else paths[p] + "|") + namespace + n)
+    return tuple(paths)
+
+
+@pytest.mark.parametrize("namespace, leading", [("", "|"), ("Character1:", "|"), ("", "")])
+def test_joints_named_by_their_dag_paths_read_as_the_names_the_paths_end_in(namespace, leading):
+    """Maya exports (and FBX-to-BVH converters) that name every joint by its full DAG path (`|Hips|LHipJoint|LeftHip`,
+    `|Character1:joint_Root|Character1:Hips`) share no head to set aside, and the paths differ in depth: 131_01, the
+    Bandai Namco dash and HDM05's bk were of no known family, the pelvis and sides read wrong. Each name is read by
+    the last part of its path (then a namespace is set aside): the same family, roles, sides, mirror partners and
+    data terms as the bare names, the file's names kept."""
+    from mocapkit.motion import find_joint, joint_sides, mirror_pairs, ROLES
+
+    data = Path(__file__).parent / "data"
+    for sk, family in ((mocapkit.load(data / "dataset-1_dash_normal_001.bvh").skeleton, "bandai_namco"),
+                       (mocapkit.load(samples.path("131_01.bvh")).skeleton, "cmu_bvh_3dsmax"),
+                       (read_asf(samples.path("HDM_bk.asf")), "acclaim")):
+        dag = _named(sk, dag_paths(sk, namespace, leading))
+        assert "|" in dag.joint_names[-1] and dag.joint_names[-1].endswith(namespace + sk.joint_names[-1])
+        assert (rigs.rig_family(dag), rigs.family_prefix(dag)) == (family, "*|" + namespace)
+        assert rigs.family_names(dag) == tuple(sk.joint_names)
+        assert rigs.roles(dag) == rigs.roles(sk) and rigs.pelvis_index(dag) == rigs.pelvis_index(sk)
+        assert {r: find_joint(dag, r) for r in ROLES} == {r: find_joint(sk, r) for r in ROLES}
+        np.testing.assert_array_equal(mirror_pairs(dag.joint_names), mirror_pairs(sk.joint_names))
+        assert joint_sides(dag.joint_names) == joint_sides(sk.joint_names)
+        assert rigs.data_terms([dag]) == rigs.data_terms([sk])
+
+
 def test_names_that_match_as_written_or_not_at_all_keep_their_prefix():
     """Only a prefix (nearly) every name shares is set aside, and only where the names as written match no family:
     Mixamo's own `mixamorig:` stays mixamo, Bandai's `_L` suffixes and SMPL's `m_avg_` are read as written, and a

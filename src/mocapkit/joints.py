@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 __all__ = [
     "some_names",
     "name_readings",
+    "DAG_PATH",
     "mirror_pairs",
     "mirror_mismatch",
     "MIRROR_MISMATCH_MAX",
@@ -60,6 +61,11 @@ _SIDE_SWAPS = [
 #: What ends a namespace or a path before a joint's own name: ``Character1:Hips``, ``rig|Hips``, ``Character1_Hips``
 _SEPARATORS = (":", "|", "_")
 
+#: The prefix :func:`name_readings` gives names read by the last part of their Maya DAG paths (``|Root|Hips``
+#: -> ``Hips``), Maya's wildcard for any path (a Maya node name never holds ``*``); a namespace set aside after it
+#: follows it (``"*|Character1:"``).
+DAG_PATH = "*|"
+
 
 def _head(name: str) -> str:
     """``name`` up to and including its first separator (:data:`_SEPARATORS`), "" where it has none or nothing
@@ -83,16 +89,32 @@ def _shared_head(names: tuple[str, ...]) -> str:
 
 
 def name_readings(joint_names: Sequence[str]):
-    """``(prefix, names)``, the joint names as a namespace exporters write before every one may hide them, in order:
-    as written (prefix ""), then with each shared head (:func:`_shared_head`) set aside in turn
+    """``(prefix, names)``, the joint names as a namespace or a path exporters write before every one may hide
+    them, in order: as written (prefix ""), then with each shared head (:func:`_shared_head`) set aside in turn
     (``ns:Character1_Hips`` -> ``Character1_Hips`` -> ``Hips``), while the names stay distinct; at most three
-    heads. :func:`mocapkit.rigs.rig_family` matches families on the first that one fits; :func:`mirror_pairs`
-    pairs by the last the names a namespace leaves unpaired (``Character1_lhand``).
+    heads. Names that are Maya DAG paths, each joint named by the path of its ancestors (``|Root|Hips|Spine``,
+    ``|Character1:Root|Character1:Hips``: no head is shared, the paths differ in depth), are then read by the
+    last part of each path (``Spine``, ``Character1:Hips``; prefix :data:`DAG_PATH`), and their shared heads
+    set aside in turn after it (prefix ``"*|Character1:"``). :func:`mocapkit.rigs.rig_family` matches
+    families on the first that one fits; :func:`mirror_pairs` pairs by the last the names a namespace or path
+    leaves unpaired (``Character1_lhand``).
 
     >>> [p for p, _ in name_readings(["ns:Character1_Hips", "ns:Character1_Spine", "ns:Character1_Head"])]
     ['', 'ns:', 'ns:Character1_']
+    >>> [(p, n) for p, n in name_readings(["|ns:Hips", "|ns:Hips|ns:Spine", "|ns:Hips|ns:Spine|ns:Head"])][-2:]
+    [('*|', ('ns:Hips', 'ns:Spine', 'ns:Head')), ('*|ns:', ('Hips', 'Spine', 'Head'))]
     """
-    prefix, names = "", tuple(joint_names)
+    names = tuple(joint_names)
+    last = names
+    for last in _heads_set_aside("", names):
+        yield last
+    leaves = tuple(n.rsplit("|", 1)[-1] for n in names)
+    if leaves != last[1] and leaves != names and len(set(leaves)) == len(leaves) and all(leaves):
+        yield from _heads_set_aside(DAG_PATH, leaves)
+
+
+def _heads_set_aside(prefix: str, names: tuple[str, ...]):
+    """``(prefix, names)`` as given, then with each shared head set aside in turn (:func:`name_readings`)."""
     yield prefix, names
     for _ in range(3):
         head = _shared_head(names)

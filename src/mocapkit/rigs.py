@@ -50,7 +50,10 @@ is set aside for family matching where the names as written match no family
 Names as written come first, so Mixamo's own ``mixamorig:LeftUpLeg`` stays
 ``mixamo`` and a suffix such as Bandai's ``_L`` is never touched; names
 sharing a prefix that match no family with it set aside stay of none known.
-Only the matching reads the names without it: the take, its output, the
+Joints each named by the full Maya DAG path of its ancestors (``|Root|Hips|Spine``,
+``|Character1:Root|Character1:Hips``, as Maya and FBX-to-BVH converters write them) share no such part: they are
+read by the last part of each path, then a namespace set aside the same way (``family_prefix`` ``"*|"``,
+``"*|Character1:"``). Only the matching reads the names without it: the take, its output, the
 decisions and the report keep the file's names.
 
 Pure functions of a :class:`~mocapkit.motion.Skeleton`; nothing here reads
@@ -345,8 +348,10 @@ def rig_family(skeleton: Skeleton) -> str | None:
 
 def family_prefix(skeleton: Skeleton) -> str:
     """The namespace :func:`rig_family` set aside to match ``skeleton``'s family (``"Character1_"`` for
-    ``Character1_Hips`` ..., ``"mixamorig:"`` for a Bandai Namco rig exported as ``mixamorig:Hips``), "" where the
-    names as written match it or no family matches (module docstring).
+    ``Character1_Hips`` ..., ``"mixamorig:"`` for a Bandai Namco rig exported as ``mixamorig:Hips``;
+    :data:`mocapkit.joints.DAG_PATH`, ``"*|"``, for joints each named by its Maya DAG path, ``|Hips|Spine``, read by
+    the last part, and ``"*|Character1:"`` with a namespace on every part), "" where the names as written match it
+    or no family matches (module docstring).
 
     >>> from mocapkit.motion import Skeleton
     >>> sk = Skeleton(("rig|Hips", "rig|LeftUpLeg", "rig|LeftLeg", "rig|RightUpLeg", "rig|RightLeg", "rig|Spine",

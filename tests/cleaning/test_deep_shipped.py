@@ -314,6 +314,28 @@ def test_a_bandai_take_the_bandai_models_cannot_serve_says_why(dance):
     assert "\n" not in note
 
 
+@pytest.mark.parametrize("namespace", ["", "Character1:"])
+def test_joints_named_by_their_dag_paths_change_neither_the_model_nor_the_result(namespace):
+    """Every joint named by its full Maya DAG path (`|joint_Root|Hips|Spine`, `|Character1:joint_Root|Character1:Hips`)
+    made the Bandai take of no known family: the Acclaim model through a joint map, under HDM05's licence. Read by
+    the last part of each path, it gets the Bandai EBF and the same cleaned arrays, bit for bit; the output keeps the
+    file's names."""
+    take = mocapkit.load(Path(__file__).parents[1] / "data" / "dataset-2_walk-turn-left_exhausted_005.bvh")
+    bad = corrupt.corrupt(take, kind="noise", seed=1, amount=0.3)[0]
+    base = mocapkit.clean(bad)
+    paths: list[str] = []
+    for j, n in enumerate(bad.skeleton.joint_names):
+        p = int(bad.skeleton.parents[j])
+        paths.append(("" if p < 0 else paths[p]) + "|" + namespace + n)
+    sk = dataclasses.replace(bad.skeleton, joint_names=tuple(paths))
+    out = mocapkit.clean(dataclasses.replace(bad, skeleton=sk))
+    assert out.motion.skeleton.joint_names == sk.joint_names and sk.joint_names[2] == f"|{namespace}joint_Root|{namespace}Hips|{namespace}Spine"
+    denoise = [line for line in out.summary() if line.startswith("denoise")]
+    assert denoise and "EBF (shipped, bandai_namco)" in denoise[0] and "CC BY-NC 4.0" in denoise[0]
+    np.testing.assert_array_equal(out.motion.rotations, base.motion.rotations)
+    np.testing.assert_array_equal(out.motion.root_positions, base.motion.root_positions)
+
+
 @pytest.mark.parametrize("kind, prefixes", [("noise", ("mixamorig:", "Character1_")), ("gaps", ("rig|",))])
 def test_a_namespace_before_the_joint_names_changes_neither_the_model_nor_the_result(kind, prefixes):
     """A user trial: a Bandai Namco take exported with `mixamorig:` (or `Character1_`, `rig|`) before every joint

@@ -769,3 +769,45 @@ def test_info_says_the_namespace_set_aside_to_find_the_family(tmp_path):
     said = " ".join(out.replace("│", " ").split())
     assert "rig family bandai_namco (its names read without the prefix 'mixamorig:' they share" in said, out
     assert "mixamorig:UpperLeg_L" in said
+
+
+def _dag_named(bvh: str, namespace: str) -> str:
+    """A BVH's text with every joint named by its full Maya DAG path (``|Hips|LHipJoint|LeftHip``), each part under
+    ``namespace``; line endings and the motion kept."""
+    import re
+
+    path: list[str] = []  # the open blocks' joints (None for an end site)
+    pending = None
+    out = []
+    for line in bvh.splitlines(keepends=True):
+        m = re.match(r"(\s*(?:ROOT|JOINT)\s+)(\S+)", line)
+        if m:
+            pending = namespace + m.group(2)
+            line = m.group(1) + "".join("|" + p for p in path if p) + "|" + pending + line[m.end():]
+        elif line.strip().startswith("End"):
+            pending = None
+        elif line.strip() == "{":
+            path.append(pending)
+        elif line.strip() == "}":
+            path.pop()
+        out.append(line)
+    return "".join(out)
+
+
+def test_info_reads_joints_named_by_their_dag_paths_as_the_bare_take(tmp_path):
+    """131_01 with every joint named by its full Maya DAG path (`|Hips|LHipJoint|LeftHip`, under a namespace
+    `|Character1:Hips|...`) was of "none known" family; `info` now gives it the family, roles and unit of the bare
+    take and says how its names were read, the file's names kept."""
+    source = mocapkit.samples.path("131_01.bvh")
+    base = run("info", source)[1].splitlines()
+    for namespace in ("", "Character1:"):
+        take = tmp_path / f"dag{len(namespace)}.bvh"
+        take.write_bytes(_dag_named(source.read_bytes().decode(), namespace).encode())
+        code, out, err = run("info", take, "--joints")
+        assert code == 0, err
+        said = " ".join(out.replace("│", " ").split())
+        assert ("rig family cmu_bvh_3dsmax (its names read as the last part of their DAG paths"
+                + (f", without the prefix {namespace!r} they share" if namespace else "") + ";") in said, out
+        assert f"|{namespace}Hips|{namespace}LHipJoint|{namespace}LeftHip " in said
+        kept = ("human roles", "length unit", "channels", "missing")
+        assert [ln for ln in out.splitlines() if ln.startswith(kept)] == [ln for ln in base if ln.startswith(kept)]

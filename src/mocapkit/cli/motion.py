@@ -30,6 +30,7 @@ def info(
     from ..io.c3d_contents import marker_counts, marker_file_contents, never_seen_line, zero_gaps_line
     from ..io.takes import CLI_AMC_NAMES, check_asf, load_take
     from ..motion import ROLES, standard_joints, unit_scale_cm
+    from ..joints import DAG_PATH
     from ..rigs import family_prefix, rig_family, roles_by_topology
 
     check_asf(asf, [file], amc_fps, names=CLI_AMC_NAMES)
@@ -84,7 +85,11 @@ def info(
     if family is None:
         family = ("none known; roles read from its tree and rest pose" + _served_note(m)
                   if roles_by_topology(sk) else "none known (no joint map: the networks fall back)")
-    elif prefix := family_prefix(sk):  # a namespace before every name (Character1_Hips): matched without it
+    elif (prefix := family_prefix(sk)).startswith(DAG_PATH):  # Maya DAG paths (|Root|Hips): matched by their last part
+        family += (" (its names read as the last part of their DAG paths"
+                   + (f", without the prefix {prefix[len(DAG_PATH):]!r} they share" if prefix != DAG_PATH else "")
+                   + "; the file's names are kept)")
+    elif prefix:  # a namespace before every name (Character1_Hips): matched without it
         family += f" (its names read without the prefix {prefix!r} they share; the file's names are kept)"
     rows.append(("rig family", family))
     rows += [("channels", str(len(m.channel_names()))),
