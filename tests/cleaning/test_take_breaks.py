@@ -226,3 +226,36 @@ def test_a_take_of_many_jumps_names_the_first_few_in_clean_s_summary_and_counts_
     assert note.count("and stays there") == MAX_LINES
     assert f"... and {len(at) - MAX_LINES} more cuts and jumps of the root (`mocapkit detect` lists them all)" in note
     assert np.array_equal(res.motion.root_positions, root)  # named, not changed
+
+
+@pytest.mark.parametrize("second_from", [30, "near"])
+def test_a_cut_is_named_by_the_first_frame_of_the_second_take(tmp_path, second_from):
+    """HDM05's bk sneak 004 (frames 0-199) joined to sneak 005 (from frame 30, or from the frame whose pose is
+    nearest 004's frame 199): the break between frames 199 and 200 puts the joints' residuals over at both, so
+    the shares tie at 199, 200 and 201, and the cut was named by the first, 199, one frame before the second take
+    begins, and where the root jumps at 200 too it was named twice (the root's jump at 200, the cut at 199). A
+    cut is named by the second take's first frame, 200, in the summary and the record `info` reads; where the
+    root jumps there too (sneak 005 from frame 30; 131_01 frames 0-399 then 700-) it is named once, by the jump."""
+    from mocapkit import rotations as R
+    from tests.cli.helpers import run
+
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    start = second_from if second_from != "near" else int(np.argmin(
+        np.nanmean(R.geodesic_angle(b.rotations, a.rotations[199][None]), axis=1)))
+    m = _cat(a[:200], b[start:])
+    assert [c.frame for c in tb.cuts(m)] == [200]
+    take, out = tmp_path / "stitched.bvh", tmp_path / "out.bvh"
+    mocapkit.save(m, take)
+    code, said, err = run("clean", take, "-o", out)
+    assert code == 0, err
+    # from frame 30 the root jumps 71 cm there too: the cut is named once, by the root's jump
+    named = "frame 200: the " + ("root (root) jumps 71 cm" if second_from == 30 else "whole body jumps")
+    assert named in said and "frame 199" not in said, said
+    code, info, err = run("info", tmp_path / "out.clean.npz")
+    assert code == 0 and named in " ".join(info.split()) and "frame 199" not in info, info + err
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    both = _cat(walk[:400], walk[700:])
+    assert [c.frame for c in tb.cuts(both)] == [400]
+    notes = _note(clean(both, steps="fill,detect"))
+    assert "frame 400: the root (Hips) jumps" in notes and "whole body jumps" not in notes, notes

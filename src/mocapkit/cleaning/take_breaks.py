@@ -89,8 +89,8 @@ class RootEvent:
 
 @dataclass(frozen=True)
 class Cut:
-    """A frame where the whole body jumps: ``frame`` (the first frame after the break) and the ``share`` of the
-    moving joints breaking there."""
+    """A frame where the whole body jumps: ``frame``, the first frame after the break (of two takes joined, the
+    second's first frame), and the ``share`` of the moving joints breaking there."""
 
     frame: int
     share: float
@@ -279,7 +279,14 @@ def cut_scores(motion: Motion, resid: np.ndarray | None = None, ignore: np.ndarr
     ``resid``: ``midpoint_residuals(motion.rotations)`` when the caller has them already (None: made here).
     ``ignore``: (F, J) bool or None, cells that are no evidence (channels written as 0, :mod:`.zeros`): a joint
     with such a cell at a frame or beside it is left out of that frame's share, its breaks and its count alike, so
-    that a dropout's own jumps make no cut."""
+    that a dropout's own jumps make no cut. A break between frames ``c - 1`` and ``c`` puts a joint's residual
+    over its limit at both, so it counts at ``c - 1``, ``c`` and ``c + 1`` alike (:func:`cuts` names ``c``)."""
+    return _break_shares(motion, resid, ignore)[0]
+
+
+def _break_shares(motion: Motion, resid: np.ndarray | None, ignore: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(into, between)``, (F,) each: :func:`cut_scores`, and the share of the same joints whose residuals are
+    over their limits at both ``f - 1`` and ``f``, the break between them (its peak names a cut's frame)."""
     from .ssa.cues import midpoint_residuals
 
     if resid is None:
@@ -287,21 +294,23 @@ def cut_scores(motion: Motion, resid: np.ndarray | None = None, ignore: np.ndarr
     F = resid.shape[0]
     out = np.zeros(F)
     if F < 4:
-        return out
+        return out, out.copy()
     from .. import rotations as R
 
     q = np.asarray(motion.rotations, dtype=np.float64)
     travel = np.nan_to_num(np.max(R.geodesic_angle(q, q[:1]), axis=0))  # (J,) radians from the first frame
     moving = travel > np.radians(CUT_MOVING_DEG)
     if moving.sum() < CUT_MIN_JOINTS:
-        return out
+        return out, out.copy()
     peak = _usual_peak(resid[1:-1])
     limit = np.maximum(CUT_RATIO * peak, np.radians(CUT_MIN_DEG))
     over = resid > limit  # a break between f-1 and f shows at f-1 and at f
     into = np.zeros_like(over)
     into[1:] = over[:-1] | over[1:]
+    between = np.zeros_like(over)
+    between[1:] = over[:-1] & over[1:]
     if ignore is None:
-        out = into[:, moving].mean(axis=1)
+        out, both = into[:, moving].mean(axis=1), between[:, moving].mean(axis=1)
     else:  # a cell ignored at f - 2 .. f + 1 touches the residuals that make into[f]
         given = np.asarray(ignore, dtype=bool)
         ign = given.copy()
@@ -311,30 +320,37 @@ def cut_scores(motion: Motion, resid: np.ndarray | None = None, ignore: np.ndarr
         counted = moving[None, :] & ~ign
         with np.errstate(invalid="ignore", divide="ignore"):
             out = np.nan_to_num((into & counted).sum(axis=1) / counted.sum(axis=1))
-    out[0] = 0.0
-    return out
+            both = np.nan_to_num((between & counted).sum(axis=1) / counted.sum(axis=1))
+    out[0] = both[0] = 0.0
+    return out, both
 
 
 def cuts(motion: Motion, span: tuple[int, int] | None = None, resid: np.ndarray | None = None,
          ignore: np.ndarray | None = None) -> list[Cut]:
     """The :class:`Cut` frames of ``motion`` (within ``span`` ``(lo, hi)``; module docstring).
 
-    ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already; ``ignore``: (F, J)
-    cells of ``motion`` that are no evidence (:func:`cut_scores`)."""
+    A cut is named by the first frame of the new take (``Cut.frame``: where two takes were joined, the second's
+    first frame): of the frames whose share (:func:`cut_scores`) reaches :data:`CUT_SHARE`, two or fewer apart
+    (one break shows at three), the one with the most joints broken on both sides of it (``_break_shares``), the
+    first on a tie. ``resid``: the midpoint residuals of ``motion[lo:hi]`` when the caller has them already;
+    ``ignore``: (F, J) cells of ``motion`` that are no evidence (:func:`cut_scores`)."""
     F = motion.num_frames
     lo, hi = (0, F) if span is None else span
     if hi - lo < CUT_MIN_FRAMES:
         return []
     part = motion if (lo, hi) == (0, F) else motion[lo:hi]
-    share = cut_scores(part, resid, None if ignore is None else np.asarray(ignore)[lo:hi])
-    found = np.flatnonzero(share >= CUT_SHARE)
+    share, both = _break_shares(part, resid, None if ignore is None else np.asarray(ignore)[lo:hi])
+    runs: list[list[int]] = []
+    for f in np.flatnonzero(share >= CUT_SHARE):
+        if runs and f - runs[-1][-1] <= 2:  # one cut shows at two frames at most
+            runs[-1].append(int(f))
+        else:
+            runs.append([int(f)])
     out = []
-    for f in found:
-        if out and f - (out[-1].frame - lo) <= 2:  # one cut shows at two frames at most
-            if share[f] > out[-1].share:
-                out[-1] = Cut(lo + int(f), float(share[f]))
-            continue
-        out.append(Cut(lo + int(f), float(share[f])))
+    for run in runs:
+        frames = np.arange(run[0], run[-1] + 1)
+        f = int(frames[np.argmax(both[frames])])
+        out.append(Cut(lo + f, float(share[frames].max())))
     return out
 
 

@@ -156,11 +156,10 @@ def _runs(zero: np.ndarray, keep_out: np.ndarray, min_run: int) -> list[tuple[in
 
 def _breaks(motion: Motion, ignore: np.ndarray, frames: np.ndarray) -> list[int]:
     """The frames the take breaks into, sorted: its cuts (:func:`~mocapkit.cleaning.take_breaks.cuts`, judged
-    without the ``ignore`` (F, J) cells, a dropout's own jumps; a cut's frame is the one before its break, whose
-    shares are spread over three frames, so the break is taken into the frame after it) and the root's jumps that
-    stay (:func:`~mocapkit.cleaning.take_breaks.root_events`), not those into or out of the all-zero ``frames``
+    without the ``ignore`` (F, J) cells, a dropout's own jumps; a cut's frame is the first after its break) and
+    the root's jumps that stay (:func:`~mocapkit.cleaning.take_breaks.root_events`), not those into or out of the all-zero ``frames``
     (F,) bool."""
-    out = {c.frame + 1 for c in cuts(motion, ignore=ignore)}
+    out = {c.frame for c in cuts(motion, ignore=ignore)}
     out |= {e.first for e in root_events(motion) if e.kind == "jump" and not frames[e.first - 1:e.first + 1].any()}
     return sorted(out)
 
