@@ -30,7 +30,7 @@ from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
 from .prior import GapPrior, conditional_fill
 from .provenance import card_as_read, model_licence, model_rig, restricts_use, unfinished_note
 from .retarget import Serving, served_by
-from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride
+from .sure import BLOCK_S, block_edges, calibrated_log_sigma, scoring_stride, wrapped_channels
 from .threads import INFERENCE_PARTS, RELEASE_FRAMES, release_freed_memory, torch_threads
 from .retarget import decode as decode_served
 from .retarget import encode as encode_served
@@ -375,7 +375,8 @@ def _run_ebf(
     bool: calibrate the Gaussian head's widths per channel and block
     (``edges``: block starts and the end, over the F frames) by Stein's risk
     estimate on these samples (every ``stride``-th frame of a block scored;
-    ``fps`` the model's rate)
+    ``fps`` the model's rate; an Euler channel that wrapped in training,
+    :func:`mocapkit.cleaning.deep.sure.wrapped_channels`, by the least risk alone)
     (:func:`mocapkit.cleaning.deep.sure.calibrated_log_sigma`); None keeps
     the network's widths.
     """
@@ -389,7 +390,8 @@ def _run_ebf(
         heads = [net.filter_parameters(y2[:, s : s + chunk]) for s in range(0, F, chunk)]
         log_sigma = np.concatenate([p[0].numpy() for p, _ in heads]) if heads else np.zeros((0, net.channels), np.float32)
         if observed is not None:
-            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride, fps)
+            wrapped = wrapped_channels(net.std.numpy())  # none in a 6-D model (its channels lie in [-1, 1])
+            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride, fps, wrapped)
         out = gaussian_filter_frames(x32, log_sigma)
         if net.with_bias:
             out = out - np.concatenate([b[0].double().numpy() for _, b in heads])

@@ -51,7 +51,7 @@ from numba import njit
 from .networks import observed_second_differences
 from .noise_predictor import predictor_noise_std
 
-__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "WRAPPED_STD", "wrapped_channels", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -102,6 +102,18 @@ of the second differences falls as the fourth power of the rate (a 4.5 Hz wave l
 than at 30), so at 120 fps they read the noise; and the interpolator's median passes over sparse spikes, which
 ``benchmarks/clean_takes.py`` corrupts its 120 fps HDM05 and CMU takes with and the EBF is there to take off
 (read at 120 fps, eq. 2 per frame rose on 8 of its 9 takes, grabHighR 0.0042 -> 0.0365, 1.91 -> 6.76 cm)."""
+
+WRAPPED_STD = 90.0
+"""Degrees: an Euler channel whose training standard deviation (the network's normalisation) exceeds this
+crossed +-180 in the training takes. Each take is unwrapped from its own first frame (a channel near 180 deg
+starts at +179 in one take and -179 in the next), so the channel's training values sit 360 deg apart and its
+std measures the turn between takes, not the motion (Bandai Namco's ``UpperLeg_R.Yrotation``: 174 deg for a
+hip that swings 40 deg in a walk). Normalised by that std, the channel's noise is about a tenth as large to the
+network as its mirror's, which it was trained to denoise, so the width the network predicts for it is several
+times too wide (8.8 frames against 2.0 on ``UpperLeg_L.Yrotation``, dataset-2_walk_normal_001 at 0.5 of Mall's
+noise). A channel of one rotation that stays on one side of +-180 spreads less (the Acclaim models' widest: 53
+deg). :func:`wrapped_channels` names them; :func:`calibrated_log_sigma` scales their widths by the least
+estimated risk without :data:`MIN_GAIN`'s margin."""
 
 LOG_SIGMA_KEEP = -6.0
 """The log width that keeps a frame as it is: the floor of the networks' range, where every off-centre tap of
@@ -232,8 +244,15 @@ def risk_terms(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edge
     return change, centre, count
 
 
+def wrapped_channels(std) -> np.ndarray:
+    """(C,) bool: the Euler channels whose training std (C,) degrees exceeds :data:`WRAPPED_STD` (they wrapped
+    in training; the network's widths for them are not to be trusted)."""
+    return np.asarray(std, dtype=np.float64).reshape(-1) > WRAPPED_STD
+
+
 def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.ndarray, edges: np.ndarray,
-                         half: int, stride: int = 1, fps: float | None = None) -> np.ndarray:
+                         half: int, stride: int = 1, fps: float | None = None,
+                         wrapped: np.ndarray | None = None) -> np.ndarray:
     """The network's log widths (F, C) plus, per block and channel, the log of the factor of :data:`SCALES`
     with the least Stein risk estimate, clamped to the network's range (-6, 4); float32 like the input.
 
@@ -248,6 +267,8 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     (``s`` below :data:`KEEP_NOISE` of :func:`block_spread`) and where the
     chosen factor's risk is not below ``1 - KEEP_GAIN`` of the identity's
     ``N s^2`` gets :data:`LOG_SIGMA_KEEP` on every frame (its input kept).
+    ``wrapped`` (C,) bool (:func:`wrapped_channels`): channels whose network width is not to be trusted get the
+    factor of least estimated risk, a narrower one without :data:`MIN_GAIN`'s margin.
     """
     log_sigma = np.asarray(log_sigma)
     F, C = log_sigma.shape
@@ -270,6 +291,8 @@ def calibrated_log_sigma(xp: np.ndarray, log_sigma: np.ndarray, observed: np.nda
     best = np.take_along_axis(risk, pick[None], 0)[0]
     spread = change[one] + 2.0 * s**2 * centre[one]  # the risk at factor 1 without its constant: its scale
     need = np.where(pick < one, MIN_GAIN, 0.0)  # a narrower width must gain MIN_GAIN, a wider one anything
+    if wrapped is not None:
+        need = np.where(np.asarray(wrapped, dtype=bool)[None, :], 0.0, need)
     pick[((risk[one] - best) < need * np.maximum(spread, 1e-12)) | (n_d == 0)] = one
     chosen = np.take_along_axis(risk, pick[None], 0)[0]  # (B, C)
     light = (n_d > 0) & (s < KEEP_NOISE * block_spread(x, obs, edges))
