@@ -377,3 +377,47 @@ def test_a_namespace_before_the_joint_names_changes_neither_the_model_nor_the_re
         np.testing.assert_array_equal(out.motion.rotations, base.motion.rotations)
         np.testing.assert_array_equal(out.motion.root_positions, base.motion.root_positions)
         assert [re.sub(r"\(\d+\.\d+ s\)", "", line).replace(prefix, "") for line in out.summary()] == said
+
+
+UNREAL_NAMES = {"joint_Root": "root", "Hips": "pelvis", "Spine": "spine_01", "Chest": "spine_02", "Neck": "neck_01",
+                "Head": "head", "Shoulder": "clavicle", "UpperArm": "upperarm", "LowerArm": "lowerarm", "Hand": "hand",
+                "UpperLeg": "thigh", "LowerLeg": "calf", "Foot": "foot", "Toes": "ball"}
+
+
+def _unreal_named(motion, rename=UNREAL_NAMES):
+    """The take on the same rig, its joints spelled as Unreal's mannequin (``UpperLeg_L`` -> ``thigh_l``)."""
+    def ue(name):
+        base, _, side = name.partition("_") if name.endswith(("_L", "_R")) else (name, "", "")
+        return rename.get(base, base) + (f"_{side.lower()}" if side else "")
+    names = tuple(ue(n) for n in motion.skeleton.joint_names)
+    return dataclasses.replace(motion, skeleton=dataclasses.replace(motion.skeleton, joint_names=names))
+
+
+def test_the_bandai_pair_serves_the_bandai_rig_under_unreal_names_by_role_bit_identically(dance):
+    # Trial G, finding 4: the Bandai pair refused the same rig spelled with Unreal names ("trained on a skeleton
+    # with 63 euler channels and this one has 63 (no joint Hips ...)") while the Acclaim pair served it by role.
+    noisy, _ = corrupt.angular_noise(dance, 0.5, seed=7)
+    ue = _unreal_named(noisy)
+    assert mocapkit.rigs.rig_family(ue.skeleton) == "unreal"
+    ebf, ebd = deep.load_model("ebf_bandai.pt"), deep.load_model("ebd_bandai.pt")
+    for m in (ebf, ebd):
+        s = deep.served_by(ue, m)
+        assert s.direct and s.by_role
+        # unasked, an Unreal take keeps the Acclaim pair (never silently the non-commercial one)
+        assert deep.shipped_model(m.kind, ue) is deep.shipped_model(m.kind)
+    out, method, _ = deep.denoise_or_fallback(ue, ebf, label="given")
+    assert method == "EBF (given, the unreal rig's joints read by role as bandai_namco's)"
+    same, _, _ = deep.denoise_or_fallback(noisy, ebf, label="given")
+    assert np.array_equal(out.rotations, same.rotations) and out.skeleton.joint_names == ue.skeleton.joint_names
+    rot = np.array(noisy.rotations)
+    rot[20:40, noisy.skeleton.index("LowerArm_L")] = np.nan
+    gappy = dataclasses.replace(noisy, rotations=rot)
+    filled, _, _ = deep.fill_or_fallback(_unreal_named(gappy), ebd, ebf, label="given")
+    assert np.array_equal(filled.rotations, deep.fill_or_fallback(gappy, ebd, ebf, label="given")[0].rotations)
+
+
+def test_a_rig_whose_joint_names_differ_is_refused_for_its_names_not_its_channel_count(dance):
+    odd = _unreal_named(dance, {**UNREAL_NAMES, "Shoulder": "collar"})  # no Unreal clavicle: no role for Shoulder_L
+    why = deep.served_by(odd, deep.load_model("ebf_bandai.pt"))
+    assert isinstance(why, str) and why.startswith("the model's joint names differ from this rig's (no joint Hips")
+    assert "63" not in why and "Shoulder_L" in why

@@ -62,10 +62,11 @@ class ChannelLayout:
             missing = [n for n in self.names if n not in set(have.names)]
             extra = [n for n in have.names if n not in set(self.names)]
             detail = f"missing {missing[:4]}" if missing else f"unexpected {extra[:4]}"
+            counts = ("as many as this one has, but other ones" if have.num_channels == self.num_channels
+                      else f"and this one has {have.num_channels}")
             raise SkeletonError(
-                f"{what + ': ' if what else ''}the model was trained on a skeleton with {self.num_channels} {self.representation} "
-                f"channels and this one has {have.num_channels} ({detail}); train a model on this rig "
-                f"with `mocapkit train`"
+                f"{what + ': ' if what else ''}the model was trained on a skeleton with {self.num_channels} "
+                f"{self.representation} channels {counts} ({detail}); train a model on this rig with `mocapkit train`"
             )
 
 

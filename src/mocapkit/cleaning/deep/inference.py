@@ -861,6 +861,8 @@ def _method(kind: str, label: str, sv: Serving, name: str | None = None, skeleto
     the model's that the fallback took (``skeleton`` names them)."""
     rig = model_rig(sv.model)  # None: a model file that does not say its rig, of other joints than Acclaim's
     via = (f", {sv.family}" if rig != "acclaim" and sv.family else "") if sv.direct else f", via the {sv.family} joint map"
+    if sv.direct and rig not in (None, "acclaim") and sv.family not in (None, rig):  # retarget.role_names_for
+        via = f", the {sv.family} rig's joints read by role as {rig}'s"
     if sv.direct and sv.others and skeleton is not None:
         names = [skeleton.joint_names[j] for j in sv.others]
         via += f"; {', '.join(names[:3])}{', ...' if len(names) > 3 else ''} beside its joints by the fallback"

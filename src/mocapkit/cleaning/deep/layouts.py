@@ -150,7 +150,10 @@ def _packaged_layout(name: str) -> ShippedLayout:
 def pick_served(names: Sequence[str], take, get: Callable):
     """The model of ``names`` (:func:`shipped_names`) for ``take``, each read by ``get(name)`` only when needed:
     the first that :func:`.retarget.served_by` says serves the take on its own channels, else the first that
-    serves it through a joint map, else the first (so the fallback's reason is its); without ``take``, the first.
+    serves it through a joint map or by role (a rig family's model reading the same rig under another family's
+    names: ``Serving.by_role``; so a take under Unreal's names gets the Acclaim pair by default, not silently the
+    non-commercial Bandai Namco pair, which ``--model ebf_bandai.pt`` picks), else the first (so the fallback's
+    reason is its); without ``take``, the first.
     The one rule of :func:`..inference.shipped_model` (the networks) and :func:`shipped_layout` (their layouts)."""
     first = get(names[0])
     if take is None:
@@ -159,7 +162,7 @@ def pick_served(names: Sequence[str], take, get: Callable):
     for name in names:
         m = first if name == names[0] else get(name)  # loaded only when the ones before do not serve it directly
         s = served_by(take, m)
-        if not isinstance(s, str) and s.direct:
+        if not isinstance(s, str) and s.direct and not s.by_role:
             return m
         if mapped is None and not isinstance(s, str):
             mapped = m

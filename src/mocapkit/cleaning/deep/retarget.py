@@ -84,7 +84,7 @@ from .channels import ChannelLayout, encode as encode_direct, decode as decode_d
 from .channels import root_angular_velocity, unwrap_degrees
 from ...words import plural
 
-__all__ = ["ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "restricted", "encode",
+__all__ = ["role_names_for", "ACCLAIM_AXES", "SAME_REST_DEG", "OPTIONAL_ROLES", "INFERRED", "Serving", "served_by", "restricted", "encode",
            "decode"]
 
 #: The family a :class:`Serving` names for a rig of no known family whose roles its tree and rest pose show.
@@ -177,6 +177,8 @@ class Serving:
     others: tuple[int, ...] = ()
     names: tuple[str, ...] = ()  # direct: the take's joint names as the model reads them, where they are not the
     # file's (its family's, a namespace set aside: mocapkit.rigs.family_names); () where they are the file's
+    by_role: bool = False  # direct: ``names`` are the model's family's, read by role from another family's names
+    # (role_names_for); the shipped models' rule (layouts.pick_served) takes such a model only when nothing else serves
 
     def take_name(self, skeleton: Skeleton, name: str) -> str:
         """The file's name in ``skeleton`` (the take's) of the joint the model calls ``name``."""
@@ -356,11 +358,25 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     if not isinstance(own, str):
         others = tuple(j for j in range(1, sk.num_joints) if j not in set(own) and sk.rotation_order(j))
         return Serving(model, rigs.rig_family(sk), True, joints=own, others=others)
+    renamed = role_names_for(sk, layout)
+    if isinstance(renamed, tuple):  # the model's rig family under another family's names: read by role
+        by_role = dataclasses.replace(sk, joint_names=renamed)
+        if layout_for(by_role, layout.representation).names == layout.names:
+            return Serving(model, rigs.rig_family(sk), True, names=renamed, by_role=True)
+        joints = _own_joints(by_role, layout)
+        if not isinstance(joints, str):
+            others = tuple(j for j in range(1, sk.num_joints) if j not in set(joints) and sk.rotation_order(j))
+            return Serving(model, rigs.rig_family(sk), True, joints=joints, others=others, names=renamed,
+                           by_role=True)
+        own = f"{joints}, its joints read by role as the model's"
     trained = f"the model was trained on a skeleton with {layout.num_channels} {layout.representation} channels"
     model_roles = [_acclaim_role(n) for n in layout.joints]
     if layout.representation != "euler" or None in model_roles:
-        return (f"{trained} and this one has {have.num_channels} ({own}); "
-                f"train a model on this rig with `mocapkit train`")
+        if own.startswith("no joint ") and not isinstance(renamed, tuple):
+            return (f"the model's joint names differ from this rig's ({own}{renamed}); "
+                    f"train a model on this rig with `mocapkit train`")
+        counts = "as many as this one has" if have.num_channels == layout.num_channels else f"this one has {have.num_channels}"
+        return f"{trained}, {counts}, but other channels ({own}); train a model on this rig with `mocapkit train`"
     family = rigs.rig_family(sk)
     found = rigs.roles(sk) if family is not None else rigs.roles_by_topology(sk)
     if found is None:
@@ -374,6 +390,33 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
                 f"{len(layout.joints)} joints: {', '.join(lacking[:4])}{', ...' if len(lacking) > 4 else ''}; "
                 f"train a model on this rig with `mocapkit train`")
     return _map(model, sk, family, found, model_roles)
+
+
+def role_names_for(sk: Skeleton, layout: ChannelLayout) -> tuple[str, ...] | str:
+    """``sk``'s joint names with each joint that plays a role of the model's joints (:mod:`mocapkit.rigs`) named as
+    the model names it, the others as they are: a model trained on one rig family's names (the Bandai Namco pair:
+    ``Hips``, ``UpperLeg_L`` ...) then reads the same rig under another family's (Unreal's ``pelvis``,
+    ``thigh_l`` ...) as it reads its own. Where the model's joints are not all names of one family other than the
+    Acclaim one (which is served through its joint map), or ``sk`` has no known family or lacks a role: the reason,
+    in words, starting with "; " (appended to the names that differ)."""
+    model_family = next((f for f, table in rigs.FAMILIES.items() if f != "acclaim"
+                         and all(any(n in names for names in table.values()) for n in layout.joints)), None)
+    family = rigs.rig_family(sk)
+    if model_family is None or family is None or family == model_family:
+        return ""
+    table = rigs.FAMILIES[model_family]
+    role_of = {n: r for r, names in table.items() for n in names if n in set(layout.joints)}
+    found = rigs.roles(sk)
+    lacking = [n for n in layout.joints if role_of.get(n) not in found]
+    if lacking:
+        return (f"; read by role, this {family} rig has no joint for {', '.join(lacking[:4])}"
+                f"{', ...' if len(lacking) > 4 else ''}")
+    names = list(sk.joint_names)
+    for n in layout.joints:
+        names[found[role_of[n]]] = n
+    if len(set(names)) < len(names):
+        return f"; read by role, this {family} rig would have two joints of one name"
+    return tuple(names)
 
 
 def _own_joints(sk: Skeleton, layout: ChannelLayout) -> tuple[int, ...] | str:
