@@ -155,7 +155,8 @@ def main() -> None:
     extra = {k: v for k, v in (("dropout", a.dropout), ("observed_weight", a.observed_weight), ("offset", a.offset), ("patchy", a.patchy),
                                ("lr_patience", a.lr_patience),
                                ("speed_range", tuple(a.speed_range) if a.speed_range else None)) if v is not None}
-    cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0,
+    # crop=120: the shipped models' crop at either rate (TrainConfig's default is 1 s of the clips' rate)
+    cfg = TrainConfig(kind=a.kind, hidden=hidden, epochs=a.epochs, steps_per_epoch=50, minutes=a.minutes, seed=0, crop=120,
                       bias=a.kind == "ebf" and a.bias, noise_input=a.kind == "ebf" and a.noise_input, **extra)
     out = Path(a.out) / a.kind if a.rig == "acclaim" else Path(a.out) / a.rig / a.kind
     t = time.perf_counter()

@@ -877,3 +877,32 @@ def test_a_shipped_model_refused_for_a_rig_is_named_as_typed(tmp_path, args):
     code, _, err = run(command, SAMPLE, "-o", str(tmp_path / "d.bvh"), option, name)
     assert code == 2 and one_error_line(err) and f": the EBF {name} cannot serve this take:" in err, err
     assert "models/" not in err and not (tmp_path / "d.bvh").exists()
+
+
+def test_train_crops_a_second_of_a_30_fps_game_set_and_says_the_fix_for_shorter_takes(tmp_path):
+    """Trial G, finding 2: a crop of 120 + 2 x 15 frames (1.25 s at 120 fps) is 5 s at 30 fps, so `train denoiser`
+    refused 147 of 221 Bandai walks and runs; the crop is now 1 s of the clips' rate, and --crop sets it."""
+    import shutil
+
+    from mocapkit.cleaning import deep
+
+    data = Path(__file__).resolve().parents[1] / "data"
+    takes = tmp_path / "takes"
+    takes.mkdir()
+    names = ("dataset-2_run_active_049", "dataset-1_dash_chimpira_001", "dataset-2_walk-turn-left_exhausted_005",
+             "dataset-2_walk_normal_001_first120", "dataset-1_bow_active_001", "dataset-1_bye_giant_001")
+    for name in names:  # 65 to 142 frames at 30 fps
+        shutil.copy(data / f"{name}.bvh", takes)
+    args = ("--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial", "--noise", "angular:0.5")
+    out = tmp_path / "ebf"
+    code, _, err = run("train", "denoiser", str(takes), "-o", str(out), "--holdout", "bow", *args)
+    assert code == 0, err
+    assert deep.load_model(out / "model.pt").meta["config"]["crop"] == 30
+    shutil.copy(data / "dataset-2_raise-up-both-hands_active_061.bvh", takes)  # 46 frames: under 1 s + 2 x 15
+    code, _, err = run("train", "denoiser", str(takes), "-o", str(tmp_path / "refused"), "--holdout", "bow", *args)
+    assert code == 2 and one_error_line(err) and "shorter than a crop of 60 frames" in err and "--crop N" in err
+    assert not (tmp_path / "refused").exists()
+    code, _, err = run("train", "denoiser", str(takes), "-o", str(tmp_path / "short"), "--holdout", "bow", "--crop", "16",
+                       *args)
+    assert code == 0, err
+    assert deep.load_model(tmp_path / "short" / "model.pt").meta["config"]["crop"] == 16

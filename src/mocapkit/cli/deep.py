@@ -281,6 +281,9 @@ def train(
     patchy: float = typer.Option(
         0.0, "--patchy", help="Denoiser augmentation: share of crops with noise on some channels and over one stretch."
     ),
+    crop: Optional[int] = typer.Option(
+        None, "--crop", min=1, help="Denoiser: output frames per training crop (plus 15 each side); "
+        "default 1 s of the clips' rate (30 at 30 fps, 120 at 120 fps). Clips shorter than a crop are refused."),
     mirror: bool = typer.Option(
         False, "--mirror", help="Also train on each training clip's left/right mirror image (doubles a small set)."),
     init: str = typer.Option("xavier", "--init", help="xavier (the shipped models') or paper (uniform [-0.5, 0.5])."),
@@ -330,7 +333,7 @@ def train(
             kind=kinds[what], representation=representation, hidden=hidden, head=head, bias=bias,
             noise_input=noise_input, epochs=epochs, steps_per_epoch=steps, minutes=minutes, seed=seed, device=device,
             lr=lr, dropout=dropout, init=init, speed_range=(float(speed[0]), float(speed[1])), offset=offset,
-            patchy=patchy, **({"noise": tuple(noise)} if noise else {}),
+            patchy=patchy, crop=crop, **({"noise": tuple(noise)} if noise else {}),
         )
     except ValueError as exc:
         raise MocapError(f"train: {exc}") from None

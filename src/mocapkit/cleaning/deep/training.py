@@ -60,6 +60,13 @@ DEFAULT_NOISE = ("angular:0.1", "angular:0.5", "angular:0.9", "uniform:0.5", "sp
 BIAS_NOISE = ("bias-constant:0.5", "bias-sinusoidal:0.5")
 
 
+CROP_S = 1.0
+"""Seconds of EBF output per training crop (plus :data:`HALF_WINDOW` frames each side) where ``TrainConfig.crop``
+is not given: 120 frames at 120 fps, the shipped Acclaim models' crop; 30 at 30 fps, so a 2.2 s run of the Bandai
+Namco set (65 frames) is a training clip. A crop counted in frames whatever the rate (120 at 30 fps is 4 s, 5 s
+with the window) refused most takes of a 30 fps game set: 147 of its 221 walks and runs."""
+
+
 @dataclass(frozen=True)
 class TrainConfig:
     """Settings of one training run.
@@ -82,7 +89,7 @@ class TrainConfig:
     epochs: int = 40
     steps_per_epoch: int = 100
     batch: int = 16  # EBF crops / EBD clips per step
-    crop: int = 120  # EBF output frames per crop (plus 15 each side)
+    crop: int | None = None  # EBF output frames per crop (plus 15 each side); None: CROP_S of the clips' rate
     centres: int = 32  # EBD windows per clip in a step
     lr: float = 2e-3
     lr_patience: int = 5  # halve the learning rate after this many epochs without a better validation RMS
@@ -104,6 +111,8 @@ class TrainConfig:
             raise ValueError(f"speed_range needs 0 < lo <= hi, got {self.speed_range!r}")
         if not self.offset >= 0:
             raise ValueError(f"offset must be >= 0, got {self.offset!r}")
+        if self.crop is not None and not (isinstance(self.crop, int) and self.crop >= 1):
+            raise ValueError(f"crop must be a whole number of frames >= 1, got {self.crop!r}")
         if not 0.0 <= self.patchy <= 1.0:
             raise ValueError(f"patchy must be in [0, 1], got {self.patchy!r}")
         for name, allowed in (("kind", ("ebf", "ebd")), ("representation", ("euler", "rot6d")),
@@ -112,6 +121,10 @@ class TrainConfig:
                 raise ValueError(f"{name} is {' or '.join(allowed)}, got {getattr(self, name)!r}")
         for spec in self.noise:
             noisy_motion(None, spec, 0, check_only=True)
+
+    def crop_frames(self, fps: float) -> int:
+        """EBF output frames per crop for clips at ``fps``: ``crop`` where given, else :data:`CROP_S` seconds."""
+        return self.crop if self.crop is not None else max(int(round(CROP_S * fps)), 1)
 
     def network(self, channels: int) -> torch.nn.Module:
         if self.kind == "ebf":
@@ -157,20 +170,25 @@ def load_clips(sources, asf=None, amc_fps: float | None = None, unit: str | None
 
 
 def check_clip_lengths(clips: list[Motion], config: TrainConfig) -> None:
-    """Refuse (ValueError, one line naming them) EBF training clips shorter than one crop (``config.crop`` + 30
-    frames, 150 by default): :func:`_ebf_batch` draws its crops from whole clips, so such a clip would never be
+    """Refuse (ValueError, one line naming them) EBF training clips shorter than one crop
+    (:meth:`TrainConfig.crop_frames` + 30 frames: 150 at 120 fps, 60 at 30 fps by default): :func:`_ebf_batch`
+    draws its crops from whole clips, so such a clip would never be
     trained on while the model card counted it. An EBD trains on whole clips of any length; validation clips
     are denoised whole, so neither is checked."""
     if config.kind != "ebf":
         return
-    need = config.crop + 2 * HALF_WINDOW
+    if not clips:
+        return
+    crop = config.crop_frames(clips[0].fps)
+    need = crop + 2 * HALF_WINDOW
     short = [c for c in clips if c.num_frames < need]
     if short:
         names = [f"{c.source_file or c.name or 'clip'} ({c.num_frames})" for c in short]
         raise ValueError(f"{len(short)} of {plural(len(clips), 'training clip')} {'is' if len(short) == 1 else 'are'} "
                          f"shorter than a crop of {need} frames "
                          f"and would never be trained on: {', '.join(names[:4])}{', ...' if len(names) > 4 else ''}; "
-                         "leave them out (or hold them out for validation)")
+                         f"leave them out (or hold them out for validation), or lower the crop of {crop} output "
+                         f"frames (--crop N; TrainConfig(crop=N) in Python)")
 
 
 def split_holdout(clips: list[Motion], holdout: list[str] | int = 0, seed: int = 0):
@@ -340,12 +358,12 @@ def _ebf_batch(data, cfg: TrainConfig, rng: np.random.Generator, std: np.ndarray
     saw every channel equally noisy all the time smoothed a few noisy joints
     too little (docs/models.md).
     """
-    T = cfg.crop + 2 * HALF_WINDOW
+    T = cfg.crop_frames(data[0]["fps"]) + 2 * HALF_WINDOW
     lens = np.array([len(d["clean"]) for d in data], dtype=np.float64)
     ok = np.flatnonzero(lens >= T)
     if not len(ok):
         raise ValueError(f"every training clip is shorter than a crop of {T} frames; train on longer clips "
-                         "(or lower TrainConfig.crop in Python)")
+                         "(or lower the crop: --crop N; TrainConfig(crop=N) in Python)")
     if cfg.offset > 0 and std is None:
         raise ValueError("offset augmentation needs the training set's channel std")
     pick = rng.choice(ok, size=cfg.batch, p=lens[ok] / lens[ok].sum())
@@ -509,6 +527,8 @@ def clip_digest(m: Motion) -> str:
 def _identity(cfg: TrainConfig, clips: list[Motion], validation: list[Motion] | None) -> tuple[str, str]:
     """The settings (all but the stopping rule and device) and the data of a run, as the JSON a checkpoint keeps."""
     same = {k: v for k, v in dataclasses.asdict(cfg).items() if k not in ("epochs", "minutes", "device")}
+    if same["crop"] is None and clips:  # the frames it means: a run given them resumes one that was not
+        same["crop"] = cfg.crop_frames(clips[0].fps)
     data = {"train": [[c.name, clip_digest(c)] for c in clips],
             "validation": [[c.name, clip_digest(c)] for c in validation or []]}
     return json.dumps(same, sort_keys=True), json.dumps(data)
@@ -664,9 +684,9 @@ def train(
     """
     from ...parallel import map_ordered
 
-    cfg = config
     if not clips:
         raise ValueError("no training clips")
+    cfg = dataclasses.replace(config, crop=config.crop_frames(clips[0].fps))  # the card keeps the frames
     check_clip_lengths(clips, cfg)
     out_dir = Path(out_dir)  # made by the first write (atomic_write): a run that fails before leaves no folder
     # A checkpoint continues when everything but the stopping rule and device matches, on the same clips;
