@@ -650,7 +650,11 @@ def real_errors(
       windows are chosen where the joint moves by at least ``min_angle_deg``
       from that value, but frames early in the window may differ little;
     - ``drift``: one rotation channel drifts away linearly, from
-      ``min_angle_deg`` at the window's first frame to 25-40 deg at its last;
+      ``min_angle_deg`` at the window's first frame to 25-40 deg at its last
+      (a step off the path, then a ramp: the break rules find it; a window of
+      ``duration_s``, which may be shorter than the 0.15 s the smooth-drift
+      rule, ``SSAParams.drift_min_s``, asks of a drift with no step: such a
+      drift is :func:`smooth_drifts`');
     - ``swap``: a joint and its left/right partner (:func:`mirror_pairs`) take
       each other's mirrored rotations (the take's mirror image on its own
       skeleton, :func:`mocapkit.mirroring.mirror_for_rig`), as when marker

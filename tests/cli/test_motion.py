@@ -598,11 +598,26 @@ def test_corrupt_prints_each_injected_error_as_a_plain_line(tmp_path):
     out = tmp_path / "bad.bvh"
     code, said, err = run("corrupt", SAMPLE, out, "--kind", "errors", "--seed", "4")
     assert code == 0, err
-    lines = said.splitlines()[1:]
+    lines = said.split("\n  note: ")[0].splitlines()[1:]  # the note on the drifts below them
     assert lines and "{" not in said and "None" not in said, said
     for line in lines:
         assert re.fullmatch(r"  (spike|flip|freeze|drift|swap): \S+( with \S+)?, frames? \d+(-\d+)? "
                             r"\(\d+ frames?, \d+\.\d\d s\), turned by up to \d+\.\d deg", line), line
+
+
+def test_corrupt_says_its_drifts_are_stepped_not_the_smooth_drifts_the_drift_rule_flags(tmp_path):
+    """Trial G, finding 5: `corrupt --kind drift` drew 0.13 s "drifts" that `detect --drifts` (at least 0.15 s,
+    `drift_min_s`) cannot flag; they step off the path, so the break rules find them, and corrupt now says so."""
+    take = Path(__file__).resolve().parents[1] / "data" / "dataset-2_walk_normal_001_first120.bvh"
+    code, said, err = run("corrupt", take, tmp_path / "drift.bvh", "--kind", "drift", "--seed", "5")
+    assert code == 0, err
+    text = " ".join(said.split())
+    assert "drift: " in text and "0.13 s" in text  # Foot_R, frames 41-44: shorter than drift_min_s
+    assert ("note: a drift here steps off its path by 15 deg and ramps to 25-40 deg over 0.1-0.6 s (Aristidou's drift "
+            "error): detect finds it by its step, as a break; `--drifts` flags smooth drifts, which have no step and "
+            "last at least 0.15 s") in text
+    code, said, err = run("corrupt", take, tmp_path / "spike.bvh", "--kind", "spike", "--seed", "5")
+    assert code == 0 and "note:" not in said, err
 
 
 def test_corrupt_lists_a_swap_once(tmp_path):

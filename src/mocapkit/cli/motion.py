@@ -254,6 +254,10 @@ def corrupt(
                   f"{frames} of {plural(m.num_frames, 'frame')}")
     for line in corrupt_mod.describe_errors(records, m, bad):  # a swap's two records (one per joint): one line
         console.print(f"  {line}")
+    if any((r["kind"] if isinstance(r, dict) else r.kind) == "drift" for r in records):
+        console.print("  note: a drift here steps off its path by 15 deg and ramps to 25-40 deg over 0.1-0.6 s "
+                      "(Aristidou's drift error): detect finds it by its step, as a break; `--drifts` flags smooth "
+                      "drifts, which have no step and last at least 0.15 s (docs/guide/cleaning.md, Smooth drifts)")
 
 
 #: corrupt's refusal of a skeleton take written to a marker format (said before the output guard when IN's suffix
