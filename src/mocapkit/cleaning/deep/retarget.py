@@ -372,11 +372,12 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     trained = f"the model was trained on a skeleton with {layout.num_channels} {layout.representation} channels"
     model_roles = [_acclaim_role(n) for n in layout.joints]
     if layout.representation != "euler" or None in model_roles:
-        if own.startswith("no joint ") and not isinstance(renamed, tuple):
+        same_count = have.num_channels == layout.num_channels
+        if own.startswith("no joint ") and (same_count or renamed):  # renamed: why reading by role did not serve
             return (f"the model's joint names differ from this rig's ({own}{renamed}); "
                     f"train a model on this rig with `mocapkit train`")
-        counts = "as many as this one has" if have.num_channels == layout.num_channels else f"this one has {have.num_channels}"
-        return f"{trained}, {counts}, but other channels ({own}); train a model on this rig with `mocapkit train`"
+        counts = "as many as this one has, but other ones" if same_count else f"and this one has {have.num_channels}"
+        return f"{trained} {counts} ({own}); train a model on this rig with `mocapkit train`"
     family = rigs.rig_family(sk)
     found = rigs.roles(sk) if family is not None else rigs.roles_by_topology(sk)
     if found is None:
