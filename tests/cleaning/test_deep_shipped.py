@@ -173,6 +173,13 @@ def test_bandai_ebf_denoises_the_hip_whose_channels_wrapped_in_training_as_the_o
     for joint in ("UpperLeg_L", "UpperLeg_R"):
         assert rms(walk, out, joint) < 0.6 * rms(walk, noisy, joint), joint
     assert rms(walk, out, "UpperLeg_R") < 1.3 * rms(walk, out, "UpperLeg_L")
+    # at 60 fps (resampled to the model's 30) the network's width made the hip worse than its input (8.09 -> 8.66
+    # deg on the whole take); the wrapped channels are calibrated at any rate
+    walk60 = walk.resample(60)
+    noisy60, _ = corrupt.angular_noise(walk60, 0.5, seed=1)
+    out60 = deep.denoise(noisy60)
+    for joint in ("UpperLeg_L", "UpperLeg_R"):
+        assert rms(walk60, out60, joint) < 0.6 * rms(walk60, noisy60, joint), joint
 
 
 def test_bandai_ebd_fills_a_whole_joint_gap_and_keeps_the_observed_cells(dance):

@@ -364,6 +364,7 @@ def _pad(x: np.ndarray, ctx: np.ndarray, half: int = HALF_WINDOW):
 def _run_ebf(
     net: EBF, xp: np.ndarray, cp: np.ndarray, chunk: int = 4096, noise: np.ndarray | None = None,
     observed: np.ndarray | None = None, edges: np.ndarray | None = None, stride: int = 1, fps: float | None = None,
+    wrapped_only: bool = False,
 ) -> np.ndarray:
     """Offline EBF on padded (F + 30, C) channels: the trunk in one pass, the head in chunks, then the filter.
 
@@ -378,7 +379,8 @@ def _run_ebf(
     ``fps`` the model's rate; an Euler channel that wrapped in training,
     :func:`mocapkit.cleaning.deep.sure.wrapped_channels`, by the least risk alone)
     (:func:`mocapkit.cleaning.deep.sure.calibrated_log_sigma`); None keeps
-    the network's widths.
+    the network's widths. ``wrapped_only``: calibrate those wrapped channels
+    alone, the others keep the network's widths.
     """
     x = torch.as_tensor(xp, dtype=torch.float32)[None]
     c = torch.as_tensor(cp, dtype=torch.float32)[None]
@@ -391,7 +393,8 @@ def _run_ebf(
         log_sigma = np.concatenate([p[0].numpy() for p, _ in heads]) if heads else np.zeros((0, net.channels), np.float32)
         if observed is not None:
             wrapped = wrapped_channels(net.std.numpy())  # none in a 6-D model (its channels lie in [-1, 1])
-            log_sigma = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride, fps, wrapped)
+            calibrated = calibrated_log_sigma(x32, log_sigma, observed, edges, HALF_WINDOW, stride, fps, wrapped)
+            log_sigma = np.where(wrapped[None, :], calibrated, log_sigma) if wrapped_only else calibrated
         out = gaussian_filter_frames(x32, log_sigma)
         if net.with_bias:
             out = out - np.concatenate([b[0].double().numpy() for _, b in heads])
@@ -453,7 +456,9 @@ def denoise_channels(
     :data:`~mocapkit.cleaning.deep.sure.BLOCK_S` seconds by Stein's risk
     estimate on the observed samples (:mod:`.sure`: clean motion and light
     noise get a light touch); only at the model's own rate (a resampled take's
-    noise is correlated from frame to frame). False: the network's widths, as
+    noise is correlated from frame to frame), but for the channels that
+    wrapped in training (:func:`~mocapkit.cleaning.deep.sure.wrapped_channels`),
+    calibrated at any rate. False: the network's widths, as
     the streaming :class:`~mocapkit.cleaning.deep.streaming.Denoiser` uses them.
     """
     m = model_of_kind(model, "ebf")
@@ -476,7 +481,11 @@ def denoise_channels(
         window = max(3, int(round(NOISE_WINDOW * fps / m.fps))) if resample else NOISE_WINDOW
         level = noise_level_observed(xf, ~filled, m.net.std.numpy().astype(np.float64), window)
         noise = _to_rate(level, fps, m.fps, n_to=len(xf_m)) if resample else level
-    calibrate = calibrate and not resample and m.net.head_kind == "gaussian"
+    # a resampled take is calibrated on the channels that wrapped in training alone (sure.wrapped_channels: the
+    # network's width there is no guide, and the input's was never worse): a take at a multiple of the model's rate
+    # is read at the model's rate sample for sample, so its noise stays white there
+    wrapped_only = resample and bool(wrapped_channels(m.net.std.numpy()).any())
+    calibrate = calibrate and (not resample or wrapped_only) and m.net.head_kind == "gaussian"
     edges = block_edges(len(xf_m), int(round(BLOCK_S * m.fps))) if calibrate else None  # of the whole take
     end = len(xf_m)
     if until is not None:  # the model-rate frames the first `until` frames interpolate from, and 15 frames of look-ahead
@@ -485,10 +494,13 @@ def denoise_channels(
             n_m = int(edges[np.searchsorted(edges, max(n_m, 1), side="left")])
         end = min(len(xf_m), max(n_m, 1) + HALF_WINDOW + 1)
     xp, cp = _pad(xf_m[:end], ctx_m[:end])
-    observed = ~filled[:end] if calibrate else None
+    if calibrate and resample:  # a model-rate sample is observed where the data's samples it reads are
+        observed = _to_rate(filled.astype(np.float64), fps, m.fps, n_to=len(xf_m))[:end] == 0.0
+    else:
+        observed = ~filled[:end] if calibrate else None
     run_edges = np.append(edges[edges < end], end) if calibrate else None  # the blocks this run holds
     out = _run_ebf(m.net, xp, cp, noise=None if noise is None else _pad(noise[:end], ctx_m[:end])[0],
-                   observed=observed, edges=run_edges, stride=scoring_stride(m.fps), fps=m.fps)
+                   observed=observed, edges=run_edges, stride=scoring_stride(m.fps), fps=m.fps, wrapped_only=wrapped_only)
     del xp, cp
     if end >= RELEASE_FRAMES:  # a long take's temporaries, freed into heaps that keep them (threads module)
         release_freed_memory()
