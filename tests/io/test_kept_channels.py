@@ -54,3 +54,32 @@ def test_an_amc_written_from_the_npz_made_from_it_is_that_amc_byte_for_byte(tmp_
             mocapkit.save(take, tmp_path / name / "t.amc", asf=asf)
     assert (tmp_path / "same" / "t.amc").read_bytes() == amc.read_bytes()
     assert (tmp_path / "via" / "t.amc").read_bytes() == (tmp_path / "direct" / "t.amc").read_bytes() != amc.read_bytes()
+
+
+def test_the_kept_members_read_alone_are_those_the_whole_npz_holds(tmp_path):
+    """The kept numbers, layout and text that every repair and denoise reads again from a take's .npz are read
+    alone (``load_arrays(keys=...)``), not with the rotations: the same arrays as the whole npz's, the same
+    absence where an .npz keeps none, and the same refusal where the whole npz is refused."""
+    from mocapkit.errors import MocapFormatError
+    from mocapkit.io import kept_channels as kc
+    from mocapkit.io.npz import load_arrays
+
+    amc, asf = samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"), samples.path("HDM_bd.asf")
+    mocapkit.save(mocapkit.load(amc, asf=asf), tmp_path / "amc.npz")
+    mocapkit.save(mocapkit.load(samples.path("131_01.bvh")), tmp_path / "bvh.npz")
+    bare = mocapkit.load(tmp_path / "amc.npz")
+    mocapkit.save(dataclasses.replace(bare, rotations=bare.rotations[::-1].copy()), tmp_path / "bare.npz")
+    keys = (kc.VALUES_KEY, kc.LAYOUT_KEY, kc.HEADER_KEY, kc.COMMENTS_KEY, *kc.TEXT_KEYS.values())
+    held = 0
+    for name in ("amc.npz", "bvh.npz", "bare.npz"):
+        whole = load_arrays(tmp_path / name)
+        for key in keys:
+            alone = load_arrays(tmp_path / name, keys=(key,))
+            assert set(alone) == {key} & set(whole)
+            if key in whole:
+                held += 1
+                assert alone[key].dtype == whole[key].dtype and np.array_equal(alone[key], whole[key])
+        with pytest.raises(MocapFormatError, match="over the 1,000-byte limit"):
+            load_arrays(tmp_path / name, max_bytes=1000, keys=(kc.LAYOUT_KEY,))  # refused as the whole npz is
+    assert held >= 6  # the AMC's numbers, layout and text, the BVH's numbers, layout and text at least
+    assert load_arrays(tmp_path / "bvh.npz", keys=()) == {}

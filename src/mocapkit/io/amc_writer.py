@@ -181,7 +181,7 @@ def _kept_dofs(like, dofs):
     if like is None or like is False or Path(like).suffix.lower() != ".npz" or not Path(like).is_file():
         return dofs
     try:
-        data = load_arrays(like)
+        data = load_arrays(like, keys=(LAYOUT_KEY, TEXT_KEYS[".amc"]))
         layout = data.get(LAYOUT_KEY) if TEXT_KEYS[".amc"] in data else None
         given = json.loads(str(layout)) if layout is not None and layout.dtype.kind == "U" and layout.ndim == 0 else None
     except (MocapError, OSError, ValueError):

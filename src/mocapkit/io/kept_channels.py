@@ -73,7 +73,7 @@ def kept_comments(path, num_frames: int) -> list[list[str]] | None:
     if path is None or path.suffix.lower() != ".npz" or not path.is_file():
         return None
     try:
-        kept = load_arrays(path).get(COMMENTS_KEY)
+        kept = load_arrays(path, keys=(COMMENTS_KEY,)).get(COMMENTS_KEY)
         if kept is None or kept.dtype.kind != "U" or kept.ndim != 0:
             return None
         pairs = json.loads(str(kept))
@@ -104,7 +104,7 @@ def kept_header(path, motion) -> str | None:
     if path is None or path.suffix.lower() != ".npz" or not path.is_file() or motion.num_frames == 0:
         return None
     try:
-        header = load_arrays(path).get(HEADER_KEY)
+        header = load_arrays(path, keys=(HEADER_KEY,)).get(HEADER_KEY)
         if header is None or header.dtype.kind != "U" or header.ndim != 0:
             return None
         ref = read_npz(path)
@@ -130,7 +130,7 @@ def kept_values(path, channels, num_frames: int) -> np.ndarray | None:
     if path.suffix.lower() != ".npz" or not path.is_file():
         return None
     try:
-        data = load_arrays(path)
+        data = load_arrays(path, keys=(VALUES_KEY, LAYOUT_KEY))
         values, layout = data.get(VALUES_KEY), data.get(LAYOUT_KEY)
         if values is None or layout is None or layout.dtype.kind != "U" or layout.ndim != 0:
             return None
@@ -156,7 +156,7 @@ def kept_text(path, suffix: str) -> bytes | None:
     if path is None or path.suffix.lower() != ".npz" or suffix not in TEXT_KEYS or not path.is_file():
         return None
     try:
-        kept = load_arrays(path).get(TEXT_KEYS[suffix])
+        kept = load_arrays(path, keys=(TEXT_KEYS[suffix],)).get(TEXT_KEYS[suffix])
     except (MocapError, OSError, ValueError):
         return None
     if kept is None or kept.dtype.kind != "V" or kept.ndim != 0 or kept.dtype.names is not None:

@@ -176,8 +176,9 @@ def _member_count(path: Path) -> int | None:
     return struct.unpack_from("<H", tail, at + 10)[0]
 
 
-def load_arrays(path, max_bytes: int = MAX_NPZ_BYTES, max_members: int = MAX_NPZ_MEMBERS) -> dict[str, np.ndarray]:
-    """Every ``.npy`` array of an npz (a zip), checked before any of it is inflated.
+def load_arrays(path, max_bytes: int = MAX_NPZ_BYTES, max_members: int = MAX_NPZ_MEMBERS,
+                keys=None) -> dict[str, np.ndarray]:
+    """Every ``.npy`` array of an npz (a zip), or those named in ``keys``, checked before any of it is inflated.
 
     The safe ``np.load`` for a user's npz: the zip directory's entry count is
     read first (at most ``max_members``); then each member's ``.npy`` header
@@ -194,6 +195,11 @@ def load_arrays(path, max_bytes: int = MAX_NPZ_BYTES, max_members: int = MAX_NPZ
         Limit on the loaded arrays, in bytes (default :data:`MAX_NPZ_BYTES`).
     max_members : int
         Limit on the zip's entries (default :data:`MAX_NPZ_MEMBERS`).
+    keys : iterable of str, optional
+        Read only these members (names without ``.npy``; those the npz lacks are absent from the result).
+        Every member's header is checked all the same, so the npz is refused exactly where it is refused
+        whole; only the other members' data is not inflated (the kept source numbers of an .npz, read at
+        every repair and denoise of a take, without inflating its rotations again).
 
     Returns
     -------
@@ -249,7 +255,10 @@ def load_arrays(path, max_bytes: int = MAX_NPZ_BYTES, max_members: int = MAX_NPZ
                         )
                 headers.append((key, info))
             out: dict[str, np.ndarray] = {}
+            wanted = None if keys is None else set(keys)
             for key, info in headers:
+                if wanted is not None and key not in wanted:
+                    continue
                 with zf.open(info) as fh:
                     out[key] = np.lib.format.read_array(fh, allow_pickle=False)
             return out
