@@ -57,7 +57,7 @@ def bar_size(stream=None) -> dict[str, int]:
 def steps_bar(name: str, total: int, progress: bool = True):
     """A rich bar on standard error over ``total`` steps of one command's work on ``name`` ("fill take.bvh: loading
     the models", then "filling ...", with the time elapsed): yields ``step(words)``, which starts the next step and
-    says it (the first call the first step). Drawn where :func:`bar_disabled` says (a terminal of any size,
+    says it (the first call the first step; each step drawn as it starts). Drawn where :func:`bar_disabled` says (a terminal of any size,
     ``MOCAPKIT_PROGRESS``), transient: gone once the work is done, so the command's own lines stay as they were."""
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -77,6 +77,7 @@ def steps_bar(name: str, total: int, progress: bool = True):
             bar.advance(task)
         started.append(words)
         bar.update(task, description=words)
+        bar.refresh()  # each step drawn once at least, however soon the next one comes
 
     with bar:
         yield step

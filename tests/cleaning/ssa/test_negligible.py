@@ -1,8 +1,8 @@
 """Repairs too small to see given back (mocapkit.cleaning.ssa.negligible).
 
 The real take is CMU 131_01 (bundled): its right elbow is held bit-still over frames 952-973 while the similar
-motion moves, and the hold rule flags frames 960-965; the medoid neighbour word, blended to meet the take at both
-ends, moved them by 0.012 deg at most: six changed cells and a lost bit-identity for nothing.
+motion moves, and the hold rule flags frames 961-965 (960, the last live sample the hold repeats, is not flagged); the
+medoid neighbour word, blended to meet the take at both ends, moves them by hundredths of a degree at most: six changed cells and a lost bit-identity for nothing.
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ def test_negligible_runs_are_the_runs_that_move_no_cell_by_the_bound():
 def test_a_held_elbow_repaired_by_hundredths_of_a_degree_is_given_back(walk):
     j = walk.skeleton.joint_names.index("RightElbow")
     det = detect_take(walk).detection  # as `mocapkit clean` detects it
-    assert det.flags[960:966, j].all()  # the hold is flagged ...
+    assert det.flags[961:966, j].all() and not det.flags[960, j]  # the hold is flagged, from its first repeat ...
     fixed, left = repair_with_left(walk, det, foot_skate=False)
     assert np.array_equal(fixed.rotations[:, j], walk.rotations[:, j])  # ... and left bit-identical
-    run = [r for r in left if r.joint == "RightElbow" and r.start <= 960 < r.end]
+    run = [r for r in left if r.joint == "RightElbow" and r.start <= 961 < r.end]
     assert len(run) == 1 and "nothing to see" in run[0].reason
