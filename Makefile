@@ -71,9 +71,15 @@ demo: install  # demo_out/ is the demo's own folder: a rerun replaces what the l
 
 # --dist loadscope keeps each test module on one worker, so a module's costly fixtures are built once
 # The browser check (which may apt-get Chromium on a bare machine) runs beside the install, not after it.
-test:  # pytest-xdist: one worker process per core (at most 4), so a 2-core machine runs two
+# pytest-xdist: one worker process per CPU this process may run on (`nproc`, whatever OMP_NUM_THREADS says; at most
+# 4), so a 2-core machine runs two.
+# Not xdist's `auto`: that counts physical cores through psutil, one on a 2-vCPU machine whose vCPUs are the two
+# hyperthreads of one core (the suite then runs serially, twice as long), and the host's cores in a container.
+WORKERS := $(shell n=$$(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc 2>/dev/null || echo 2); [ "$$n" -gt 4 ] && n=4; echo $$n)
+
+test:
 	@bash scripts/ensure-chromium.sh & browser=$$!; $(MAKE) --no-print-directory install-test; rc=$$?; wait $$browser; exit $$rc
-	$(PY) -m pytest -q -m "not slow" --numprocesses=auto --maxprocesses=4 --dist loadscope
+	$(PY) -m pytest -q -m "not slow" --numprocesses=$(WORKERS) --dist loadscope
 
 bench: install-test
 	$(PIP) install -e '.[bench]'

@@ -29,3 +29,20 @@ def test_the_tests_bytecode_is_written_once_beside_the_warm_up(test_install_reci
     assert "-m pytest --collect-only" in collect and "env -u PYTHONDONTWRITEBYTECODE" in collect, line
     assert rest.index("-m mocapkit.warmup") < rest.index("wait"), line
     assert "exit" in rest.split("wait", 1)[1], line  # the warm-up's exit status is the recipe's
+
+
+def test_pytest_runs_one_worker_per_cpu_this_process_may_use():
+    """`make test` starts one xdist worker per CPU it may run on (at most 4), as `nproc` counts them, not xdist's
+    `auto`, which counts physical cores (one on a 2-vCPU machine whose vCPUs are hyperthreads of one core). The
+    count is read from make itself (a rule added on standard input prints it), nothing of `make test` is run."""
+    import os
+    import re
+
+    if shutil.which("make") is None or shutil.which("nproc") is None:
+        pytest.skip("make or nproc is not installed")
+    recipe = (ROOT / "Makefile").read_text()
+    assert re.search(r"-m pytest -q .*--numprocesses=\$\(WORKERS\) ", recipe), "make test's pytest line"
+    out = subprocess.run(["make", "-s", "--no-print-directory", "-f", "Makefile", "-f", "-", "print-workers"],
+                         input="print-workers:\n\t@echo $(WORKERS)\n", cwd=ROOT, capture_output=True, text=True,
+                         check=True).stdout
+    assert int(out.strip()) == min(len(os.sched_getaffinity(0)), 4), out
