@@ -318,6 +318,22 @@ def _rest_alignment(sk: Skeleton, found: dict[str, int], names, model_roles, par
     return A, body
 
 
+def _direct(model, sk: Skeleton, names: tuple[str, ...] = (), by_role: bool = False) -> Serving | str:
+    """``model`` serving ``sk`` directly, its joints read under ``names`` (``Serving.names``; the file's own where
+    empty): with exactly the model's channels, or with them among more joints (:func:`_own_joints`, the others
+    left alone: ``Serving.others``); else :func:`_own_joints`' reason."""
+    layout = model.layout
+    read = dataclasses.replace(sk, joint_names=tuple(names)) if names else sk
+    if layout_for(read, layout.representation).names == layout.names:
+        return Serving(model, rigs.rig_family(sk), True, names=tuple(names), by_role=by_role)
+    joints = _own_joints(read, layout)
+    if isinstance(joints, str):
+        return joints
+    others = tuple(j for j in range(1, sk.num_joints) if j not in set(joints) and sk.rotation_order(j))
+    return Serving(model, rigs.rig_family(sk), True, joints=joints, others=others, names=tuple(names),
+                   by_role=by_role)
+
+
 def served_by(motion_or_skeleton, model) -> Serving | str:
     """Whether ``model`` (a :class:`DeepModel`) serves the take: a :class:`Serving`, or the reason it does not.
 
@@ -344,31 +360,19 @@ def served_by(motion_or_skeleton, model) -> Serving | str:
     sk = getattr(motion_or_skeleton, "skeleton", motion_or_skeleton)
     layout = model.layout
     have = layout_for(sk, layout.representation)
-    if have.names == layout.names:
-        return Serving(model, rigs.rig_family(sk), True)
-    own = _own_joints(sk, layout)
-    if isinstance(own, str) and rigs.family_prefix(sk):  # a namespace (Character1_Hips): the family's names serve
-        bare = dataclasses.replace(sk, joint_names=rigs.family_names(sk))
-        if layout_for(bare, layout.representation).names == layout.names:
-            return Serving(model, rigs.rig_family(sk), True, names=bare.joint_names)
-        by_family = _own_joints(bare, layout)
-        if not isinstance(by_family, str):
-            others = tuple(j for j in range(1, sk.num_joints) if j not in set(by_family) and sk.rotation_order(j))
-            return Serving(model, rigs.rig_family(sk), True, joints=by_family, others=others, names=bare.joint_names)
+    own = _direct(model, sk)
     if not isinstance(own, str):
-        others = tuple(j for j in range(1, sk.num_joints) if j not in set(own) and sk.rotation_order(j))
-        return Serving(model, rigs.rig_family(sk), True, joints=own, others=others)
+        return own
+    if rigs.family_prefix(sk):  # a namespace (Character1_Hips): the family's names serve
+        bare = _direct(model, sk, rigs.family_names(sk))
+        if not isinstance(bare, str):
+            return bare
     renamed = role_names_for(sk, layout)
     if isinstance(renamed, tuple):  # the model's rig family under another family's names: read by role
-        by_role = dataclasses.replace(sk, joint_names=renamed)
-        if layout_for(by_role, layout.representation).names == layout.names:
-            return Serving(model, rigs.rig_family(sk), True, names=renamed, by_role=True)
-        joints = _own_joints(by_role, layout)
-        if not isinstance(joints, str):
-            others = tuple(j for j in range(1, sk.num_joints) if j not in set(joints) and sk.rotation_order(j))
-            return Serving(model, rigs.rig_family(sk), True, joints=joints, others=others, names=renamed,
-                           by_role=True)
-        own = f"{joints}, its joints read by role as the model's"
+        by_role = _direct(model, sk, renamed, by_role=True)
+        if not isinstance(by_role, str):
+            return by_role
+        own = f"{by_role}, its joints read by role as the model's"
     trained = f"the model was trained on a skeleton with {layout.num_channels} {layout.representation} channels"
     model_roles = [_acclaim_role(n) for n in layout.joints]
     if layout.representation != "euler" or None in model_roles:
