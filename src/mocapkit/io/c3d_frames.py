@@ -24,8 +24,8 @@ from ..errors import MocapFormatError
 from .c3d_layout import analog_offsets, analog_unsigned, parameter_values
 from ..words import plural
 
-__all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "point_words", "missing_stored", "put_missing_stored",
-           "residuals_and_cameras",
+__all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "stored_values", "point_words", "missing_stored",
+           "put_missing_stored", "residuals_and_cameras",
            "long_trial_frames", "read_frames", "rest_of_trial", "long_frame_parameters"]
 
 FRAME_CAP = 65535
@@ -65,7 +65,7 @@ def _block(raw: bytes, begin: int, end: int, points: int, analog: int, scale: fl
     return block, proc, e, size
 
 
-def _values(raw_bytes: np.ndarray, proc: int, e: str, size: int, unsigned: bool = False) -> np.ndarray:
+def stored_values(raw_bytes: np.ndarray, proc: int, e: str, size: int, unsigned: bool = False) -> np.ndarray:
     """float64 values of the stored numbers in ``raw_bytes`` (..., size) uint8: 16-bit integers or floats
     (DEC floats: the two 16-bit halves swapped, the exponent 2 higher, as :func:`read_float`)."""
     data = np.ascontiguousarray(raw_bytes)
@@ -99,7 +99,7 @@ def point_words(raw: bytes, frames: int, points: int, scale: float, analog: int 
         return None
     block, proc, e, size = got
     word = block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, 3, :]
-    values = _values(word, proc, e, size)
+    values = stored_values(word, proc, e, size)
     if size == 2:
         return values.astype(np.int64)
     values = np.where(np.isfinite(values), values, -1.0)
@@ -126,7 +126,7 @@ def missing_stored(raw: bytes, frames: int, points: int, scale: float, analog: i
     block, proc, e, size = _block(raw, 0, frames, points, analog, scale)
     f, m = np.nonzero(words < 0)
     cells = block[:, : 4 * points * size].reshape(frames, points, 4, size)[f, m, :3]  # (K, 3, size)
-    xyz = _values(cells, proc, e, size)
+    xyz = stored_values(cells, proc, e, size)
     if size == 2:
         xyz = xyz * float(scale)
     keep = np.isfinite(xyz).all(axis=1) & (xyz != 0).any(axis=1)
@@ -303,14 +303,14 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
         return None
     block, proc, e, size = got
     frames = end - begin
-    stored = _values(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, :3, :], proc, e, size)
+    stored = stored_values(block[:, : 4 * points * size].reshape(frames, points, 4, size)[:, :, :3, :], proc, e, size)
     xyz = stored * scale if size == 2 else stored
     used = parameter_values(parameters, "ANALOG", "USED") if analog else []
     channels = int(used[0]) if len(used) else 0
     if not channels or analog % channels:
         return xyz, None
     ratio = analog // channels
-    samples = _values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
+    samples = stored_values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
                       unsigned=analog_unsigned(parameters))  # (F, ratio, A)
     offsets = analog_offsets(parameters, channels)
     scales = parameter_values(parameters, "ANALOG", "SCALE")

@@ -27,6 +27,8 @@ import struct
 
 import numpy as np
 
+from .c3d_frames import stored_values
+
 __all__ = ["read_parameters"]
 
 BLOCK = 512
@@ -40,13 +42,9 @@ def _numbers(raw: bytes, typ: int, dims: tuple[int, ...], proc: int) -> np.ndarr
     """The values of a numeric record (``typ`` 1, 2 or 4 bytes each) of dimensions ``dims`` (first index fastest):
     an array of shape ``dims`` (one value: shape (1,)), int for integers, float64 holding float32 values."""
     count = int(np.prod(dims)) if dims else 1
-    if typ == 4:
-        b = np.frombuffer(raw, dtype=np.uint8, count=4 * count)
-        if proc == 85:  # DEC (VAX F): an IEEE float with its two 16-bit words swapped, exponent 2 higher
-            values = b.reshape(-1, 4)[:, [2, 3, 0, 1]].copy().view("<f4").ravel() / np.float32(4.0)
-        else:
-            values = b.view(">f4" if proc == 86 else "<f4")
-        flat = np.asarray(values, dtype=np.float64)
+    if typ == 4:  # as the data block's floats are read (DEC's too)
+        cells = np.frombuffer(raw, dtype=np.uint8, count=4 * count).reshape(count, 4)
+        flat = stored_values(cells, proc, ">" if proc == 86 else "<", 4)
     else:
         dtype = np.int8 if typ == 1 else (">i2" if proc == 86 else "<i2")
         flat = np.frombuffer(raw, dtype=dtype, count=count).astype(int)
