@@ -292,3 +292,21 @@ def corrupted_walk(folder: Path) -> Path:
     inp = folder / "walk_bad.npz"
     mocapkit.save(bad, inp)
     return inp
+
+
+def joined_sneaks():
+    """Two real takes joined end to end (a cut at frame 200): HDM05 actor bk's sneak 004, frames 0-199, then its sneak
+    005 from the frame whose pose is nearest 004's frame 199 (the smoothest join the two allow), on 004's skeleton."""
+    import dataclasses
+
+    import numpy as np
+
+    import mocapkit
+    from mocapkit import rotations as R
+
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    start = int(np.argmin(np.nanmean(R.geodesic_angle(b.rotations, a.rotations[199][None]), axis=1)))
+    a, b = a[:200], b[start:]
+    return dataclasses.replace(a, rotations=np.concatenate([a.rotations, b.rotations]),
+                               root_positions=np.concatenate([a.root_positions, b.root_positions]), name="joined")

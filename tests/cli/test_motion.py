@@ -826,3 +826,19 @@ def test_info_reads_joints_named_by_their_dag_paths_as_the_bare_take(tmp_path):
         assert f"|{namespace}Hips|{namespace}LHipJoint|{namespace}LeftHip " in said
         kept = ("human roles", "length unit", "channels", "missing")
         assert [ln for ln in out.splitlines() if ln.startswith(kept)] == [ln for ln in base if ln.startswith(kept)]
+
+
+def test_info_names_each_cut_in_one_line_and_none_in_a_whole_take(tmp_path, capsys):
+    """Two real takes joined (HDM05 bk sneak 004 to 005, the smoothest join they allow): `info` says where the
+    second begins, frame 200, with its score and what it means, on one line; a whole take (131_01) has no cut line."""
+    from tests.shared import joined_sneaks
+
+    take = tmp_path / "joined.bvh"
+    mocapkit.save(joined_sneaks(), take)
+    assert main(["info", str(take)]) == 0
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("cut ")]
+    assert len(lines) == 1, lines
+    assert "frame 200: 70 % of the moving joints jump at once between frames 199 and 200" in lines[0]
+    assert "two takes joined here (frame 200 the second's first), or frames dropped" in lines[0]
+    assert main(["info", SAMPLE]) == 0
+    assert "cut " not in capsys.readouterr().out

@@ -412,3 +412,40 @@ def test_a_put_back_teleport_is_not_said_to_be_replaced_by_similar_motion():
         "The joint turns about half a turn in one frame and later turns back: turned back by the turn it made there "
         "(a half turn, or the turn measured at its two steps).")
     assert plain_sentence("repair", [words["offset"]]).endswith(": replaced by the take's own similar motion.")
+
+
+def test_a_cut_is_listed_with_its_score_and_said_in_the_summary_not_offered_as_a_change(browser, tmp_path):
+    """Two real takes joined (HDM05 bk sneak 004 to 005, the smoothest join they allow), cleaned with its report:
+    the cut at frame 200 changes no sample, and the page listed nothing (its summary and its changes said "the
+    cleaning changed nothing"). It is listed under the changes with its score, what it means and that the cleaning
+    changed no sample for it, with no accept box; the summary says it; its jump lands on frame 200; the record keeps
+    it."""
+    from mocapkit.cleaning.take_breaks import Cut
+    from tests.shared import joined_sneaks
+
+    inp, out, html = tmp_path / "joined.bvh", tmp_path / "out.bvh", tmp_path / "out.html"
+    mocapkit.save(joined_sneaks(), inp)
+    assert main(["clean", str(inp), "-o", str(out), "--report", str(html)]) == 0
+    res = CleanResult.load(tmp_path / "out.clean.npz")
+    assert res.cuts == (Cut(200, 0.7),) and not res.changed[195:206].any()
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto(html.resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    assert pg.evaluate("() => window.mocapkitReview.cuts()") == [200]
+    row = pg.locator("#changes #cuts tbody tr")
+    assert row.count() == 1 and row.get_attribute("data-cut") == "200"
+    cells = row.locator("td")
+    assert cells.nth(0).inner_text() == "200" and cells.nth(1).inner_text() == "70 % of the joints"
+    assert "jump at once between frames 199 and 200" in cells.nth(2).inner_text()
+    assert cells.nth(3).inner_text().startswith("nothing: no sample changed for it")
+    assert row.locator("input").count() == 0  # not a change: nothing to accept or reject
+    assert "1 cut at frame 200 (two takes joined, or frames dropped): no sample changed for it" in pg.inner_text("#summary")
+    row.locator("button.jump").click()
+    assert pg.evaluate("() => window.mocapkitReport.frame()") == 200
+    assert pg.evaluate("() => window.mocapkitReview.changes()") == [c.id for c in D.changes(res, mocapkit.load(inp))]
+    ctx.close()
+    assert errors == []

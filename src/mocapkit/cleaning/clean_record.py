@@ -25,6 +25,7 @@ from ..motion import Motion, frozen
 from ..words import plural
 from .calibration import CalibrationPose
 from .stutters import Stutter
+from .take_breaks import Cut
 from .zeros import ZeroRun
 
 __all__ = ["FORMAT", "MAX_LINES", "StepRecord", "CleanResult", "clean_path", "capped_lines", "record_kind_hint"]
@@ -95,6 +96,8 @@ class CleanResult:
     found); ``zero_runs``: their :class:`~mocapkit.cleaning.zeros.ZeroRun` s, named in the summary;
     ``stutters``: the :class:`~mocapkit.cleaning.stutters.Stutter` s, frames repeating the one before bit for bit
     while the take moves, named and left as they are.
+    ``cuts``: the :class:`~mocapkit.cleaning.take_breaks.Cut` s detect found (two takes joined, or frames dropped), at
+    the take's frames: named, no sample changed for them (the HTML report lists them beside the changes).
     ``frames_note``: how the frame numbers of the summary, flags and changes (0-based take indexes) relate to the
     input file's own, :func:`mocapkit.cleaning.decisions.frames_note`; "" when the take came from no file that
     numbers its frames from other than 0 (a Motion, a BVH). Set by :func:`mocapkit.clean` and
@@ -124,6 +127,7 @@ class CleanResult:
     zeros: np.ndarray | None = None
     zero_runs: tuple = ()
     stutters: tuple = ()
+    cuts: tuple = ()
     frames_note: str = ""
     decided: object = None
 
@@ -199,6 +203,7 @@ class CleanResult:
             "left_out": None if self.left_out is None else [list(p) for p in self.left_out],
             "zero_runs": [dataclasses.asdict(z) for z in self.zero_runs],
             "stutters": [dataclasses.asdict(z) for z in self.stutters],
+            "cuts": [dataclasses.asdict(c) for c in self.cuts],
         }
         samples = {}
         if self.motion is not None:  # the cleaned values of the changed cells: decisions apply them exactly
@@ -290,6 +295,7 @@ class CleanResult:
                 zeros=data["zeros"].astype(bool) if "zeros" in data else None,
                 zero_runs=tuple(ZeroRun(**z) for z in meta.get("zero_runs", [])),
                 stutters=tuple(Stutter(**z) for z in meta.get("stutters", [])),
+                cuts=tuple(Cut(**c) for c in meta.get("cuts", [])),
             )
         except KeyError as e:  # an npz of another kind: say what it lacks, not a bare KeyError
             raise MocapFormatError(path, f"not a mocapkit clean file: it holds no {e.args[0]!r}"

@@ -538,6 +538,7 @@ def clean(
     records: list[StepRecord] = []
     notes: list[str] = []
     det = None
+    cuts = ()  # the take's cuts (take_breaks.Cut), found by detect: named, no sample changed for them
     left_out = None
     cur = motion
 
@@ -628,6 +629,7 @@ def clean(
             steps = tuple(s for s in steps if s != "repair")
         else:
             det = found.detection  # at the take's frames, nothing flagged on a calibration pose
+            cuts = found.cuts
             mdm = np.nan_to_num(np.asarray(det.mdm, dtype=np.float64))
             flags = np.asarray(det.flags, dtype=bool)
             causes = det.causes()
@@ -707,4 +709,5 @@ def clean(
         joint_names=tuple(motion.skeleton.joint_names), fps=float(motion.fps), steps=tuple(records),
         notes=tuple(notes), params=params, detection=det, calibration=tuple(poses), causes=causes,
         take_sha256=take_digest(motion), left_out=left_out, zeros=zero_cells, zero_runs=zero_runs, stutters=stutters,
+        cuts=cuts,
     )

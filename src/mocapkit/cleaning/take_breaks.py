@@ -35,7 +35,7 @@ import numpy as np
 from ..motion import Motion
 from ..words import frame_span
 
-__all__ = ["JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
+__all__ = ["CUT_KEPT", "JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
            "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
            "cut_mask"]
 
@@ -87,13 +87,30 @@ class RootEvent:
         return what
 
 
+#: what ``clean`` does about a cut (:class:`Cut`): no sample changes for it
+CUT_KEPT = ("nothing: no sample changed for it; its breaks confirm no repair, the motion on either side is kept as "
+            "it is")
+
+
 @dataclass(frozen=True)
 class Cut:
     """A frame where the whole body jumps: ``frame``, the first frame after the break (of two takes joined, the
-    second's first frame), and the ``share`` of the moving joints breaking there."""
+    second's first frame), and the ``share`` of the moving joints breaking there (the cut's score, 0-1)."""
 
     frame: int
     share: float
+
+    @property
+    def kind(self) -> str:
+        """``"cut"``: the report's and ``info``'s word for it."""
+        return "cut"
+
+    @property
+    def meaning(self) -> str:
+        """What the break means for a person deciding about it, one sentence."""
+        return (f"{100 * self.share:.0f} % of the moving joints jump at once between frames {self.frame - 1} and "
+                f"{self.frame}, far over their own motion: two takes joined here (frame {self.frame} the second's "
+                "first), or frames dropped; split the take here, or keep it whole")
 
     def __str__(self) -> str:
         return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once): a cut, "

@@ -58,9 +58,10 @@ from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import Guarded, guarded_take
 from .measured import filled_channels_note, keep_measured, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
+from . import take_breaks
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
-           "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "denoise_guarded", "check_no_zeros", "detect_take", "across_breaks",
+           "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "denoise_guarded", "check_no_zeros", "detect_take", "take_cuts", "across_breaks",
            "repair_take", "repair_whole", "TurnOvers", "body_joints", "turn_overs", "review_turn_overs", "turn_overs_note", "with_flips",
            "TakeReview", "review_whole", "teleports_note",
            "with_teleports", "flagged_in_all_note", "changed_cells", "differing", "REVIEW_WHY"]
@@ -79,7 +80,9 @@ class TakeDetection:
     line ("" otherwise); ``calibration``: the :class:`~mocapkit.cleaning.calibration.CalibrationPose` of the
     take, left alone; ``span``: ``(lo, hi)``, the frames between them; ``breaks``: the lines among the
     detection's notes that name the take's cuts and its root's jumps (:func:`across_breaks`), which a summary
-    may count past the first few (a long take of many cuts names dozens).
+    may count past the first few (a long take of many cuts names dozens); ``cuts``: the
+    :class:`~mocapkit.cleaning.take_breaks.Cut` s found, at the take's frames (those where the root jumps too
+    included: their line names the jump), which the report lists.
     """
 
     detection: object
@@ -87,6 +90,7 @@ class TakeDetection:
     span: tuple
     skipped: str = ""
     breaks: tuple = ()
+    cuts: tuple = ()
 
 
 def take_params(*, max_word_angle_deg: float | None = MAX_WORD_ANGLE_DEG, drifts: bool = False, **overrides):
@@ -296,11 +300,25 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     except (ValueError, SkeletonError) as exc:
         raise MocapError(f"{name}: detect: {exc}") from None
     before = len(det.notes)
-    det = across_breaks(part, det, lo=lo)
-    return TakeDetection(det.padded(lo, F) if poses else det, poses, span, breaks=tuple(det.notes[before:]))
+    an = det.analysis  # its midpoint residuals are part's when it analysed part itself
+    found = take_breaks.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
+    det = across_breaks(part, det, lo=lo, found=found)
+    return TakeDetection(det.padded(lo, F) if poses else det, poses, span, breaks=tuple(det.notes[before:]),
+                         cuts=tuple(dataclasses.replace(c, frame=c.frame + lo) for c in found))
 
 
-def across_breaks(part: Motion, det, *, lo: int = 0):
+def take_cuts(motion: Motion) -> list:
+    """The :class:`~mocapkit.cleaning.take_breaks.Cut` s of ``motion``, at the take's frames, found as ``clean``'s
+    detect step finds them but on the take as it is: between its calibration poses (:func:`motion_span`), the cells
+    missing or written as 0 where the capture lost data (:func:`~mocapkit.cleaning.zeros.find_zeros`) no evidence.
+    What ``mocapkit info`` names."""
+    lo, hi = motion_span(calibration_poses(motion), motion.num_frames)
+    if hi - lo < take_breaks.CUT_MIN_FRAMES:
+        return []
+    return take_breaks.cuts(motion, span=(lo, hi), ignore=find_zeros(motion)[0] | motion.missing())
+
+
+def across_breaks(part: Motion, det, *, lo: int = 0, found=None):
     """``det`` (a detection of ``part``, the frames analysed: the take's frames ``lo ..``) with the take's breaks
     said and judged as such.
 
@@ -311,14 +329,17 @@ def across_breaks(part: Motion, det, *, lo: int = 0):
     either side are not "repaired" because of it (a splice of two walks had the pelvis of the 17 frames before
     it turned round by up to 172 deg). The notes name the take's frames (``lo`` on from part's), as the repair
     step's lines do: named at part's, a teleport after a calibration T-pose was said one frame early.
+    ``found``: the :class:`~mocapkit.cleaning.take_breaks.Cut` s of ``part`` when the caller has them (None: found
+    here).
     """
     import dataclasses
 
     from . import take_breaks as tb
 
     events = tb.root_events(part)
-    an = det.analysis  # its midpoint residuals are part's when it analysed part itself
-    found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
+    if found is None:
+        an = det.analysis  # its midpoint residuals are part's when it analysed part itself
+        found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
     said = ([dataclasses.replace(e, first=e.first + lo, last=e.last + lo) for e in events]
             + [dataclasses.replace(c, frame=c.frame + lo) for c in found if not any(e.first == c.frame for e in events)])

@@ -100,11 +100,23 @@ def info(
     licence = kept_licence(file)  # a reconstruction's: the terms of the database's takes its poses come from
     if licence:
         rows.append(("licence", licence))
+    rows += _cut_rows(m)
     print_fields(rows)
     if joints:
         print_table(("#", "joint", "parent", "channels"),
                     ((j, name, "-" if sk.parents[j] < 0 else sk.joint_names[sk.parents[j]], " ".join(sk.joint_channels(j)))
                      for j, name in enumerate(sk.joint_names)))
+
+
+def _cut_rows(m) -> list[tuple[str, str]]:
+    """One ``cut`` row per cut of the take (:func:`mocapkit.cleaning.whole_take.take_cuts`: two takes joined, or
+    frames dropped), at most :data:`~mocapkit.cleaning.clean_record.MAX_LINES` then a count; none for a take without."""
+    from ..cleaning.clean_record import capped_lines
+    from ..cleaning.whole_take import take_cuts
+
+    found = take_cuts(m)
+    lines = capped_lines([f"frame {c.frame}: {c.meaning}" for c in found], "cuts", " (`mocapkit detect` lists them all)")
+    return [("cut", line) for line in lines]
 
 
 _UNITS_FROM = {"file": "", "given": " (given with --unit; the file states none)",

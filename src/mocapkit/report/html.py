@@ -60,7 +60,7 @@ from ..io import atomic_write
 from ..motion import Motion, unit_scale_cm
 from .view import body_points, find_up_axis, fit_view, rotation_to_y
 
-__all__ = ["write_report", "shown_frames", "DEFAULT_MAX_FRAMES", "DETAIL_MARGIN", "MAX_PLOT_JOINTS"]
+__all__ = ["write_report", "cut_rows", "shown_frames", "DEFAULT_MAX_FRAMES", "DETAIL_MARGIN", "MAX_PLOT_JOINTS"]
 
 #: frames the viewer keeps by default: a 60 s take at 120 fps is shown at full rate.
 DEFAULT_MAX_FRAMES = 7200
@@ -120,12 +120,12 @@ def _run_starts(mask: np.ndarray) -> np.ndarray:
 
 
 def _review_spans(review: dict | None, F: int) -> dict[str, list[tuple[int, int]]]:
-    """``(first, last)`` frames of the review's changes and flags that lie in the take."""
+    """``(first, last)`` frames of the review's changes and flags that lie in the take; a cut's two frames (the last
+    before the break and the first after it) are shown as a flag's are, every frame."""
     out: dict[str, list[tuple[int, int]]] = {"changes": [], "flags": []}
     if not isinstance(review, dict):
         return out
-    for key in out:
-        items = review.get(key)
+    for key, items in (("changes", review.get("changes")), ("flags", review.get("flags")), ("flags", review.get("cuts"))):
         for item in items if isinstance(items, list) else ():
             if not isinstance(item, dict):
                 continue
@@ -545,6 +545,18 @@ def write_report(
     return path
 
 
+def cut_rows(cuts) -> list[dict]:
+    """The report's row of each :class:`~mocapkit.cleaning.take_breaks.Cut`: ``frame`` (the first frame after the
+    break), ``first``/``last`` (the frames either side of it, shown in full by the viewer), ``share`` (the score: the
+    share of the moving joints breaking there, 0-1), ``kind`` ("cut" or "possible cut"), ``meaning`` and ``did``
+    (what the cleaning did: nothing, no sample changed for it). A cut changes no sample, so it is no change to
+    accept or reject: a person sees it and decides (split the take there, or keep it)."""
+    from ..cleaning.take_breaks import CUT_KEPT
+
+    return [{"frame": int(c.frame), "first": max(0, int(c.frame) - 1), "last": int(c.frame), "share": float(c.share),
+             "kind": c.kind, "meaning": c.meaning, "did": CUT_KEPT} for c in cuts]
+
+
 def write_clean_report(path, original: Motion, result, *, inp=None, output: str = "", record="", decisions=None,
                        applied: str = "", command: dict | None = None, asf=None) -> Path:
     """Write the report of a cleaning to review and decide: :func:`write_report` with the list of changes.
@@ -598,6 +610,7 @@ def write_clean_report(path, original: Motion, result, *, inp=None, output: str 
     review = dec.review(original, result, take=name, output=output, decisions=decisions,
                         first_frame=file_first_frame(inp) if inp else None, record=record, command=command)
     review["flags"] = flag_outcomes(result)  # each flag with what the cleaning did about it
+    review["cuts"] = cut_rows(getattr(result, "cuts", ()))  # named for a person to see: no sample changed for them
     review = with_plain_words(review, result)  # an animator's sentence first, the detector's words as detail
     det = result.detection  # None for a record read back: it keeps no per-cell judgement
     return write_report(path, original, cleaned, mdm=result.mdm, flags=result.flags, changed=changed,

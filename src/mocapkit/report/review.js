@@ -1,5 +1,6 @@
 /* mocapkit cleaning report: the changes the cleaning made, each accepted or rejected by a person,
- * and the flags detection raised, each with the rule that raised it.
+ * the flags detection raised, each with the rule that raised it, and the cuts (two takes joined), which change no
+ * sample and are listed for a person to decide.
  * Reads the JSON block #mocapkit-review (mocapkit.cleaning.decisions: the changes and the
  * decisions document); absent, it does nothing. Each change has accept/reject (default accept)
  * and a link that moves the viewer to its first frame and selects its joint. The "Download
@@ -25,6 +26,7 @@
   }
   var sec = el("section", { "class": "changes", id: "changes" }, document.getElementById("app") || document.body);
   var flags = R.flags || [];
+  var cuts = R.cuts || [];  // where two takes were joined: named for a person to decide, no sample changed for them
   el("h2", { text: "Changes (" + list.length + ")" }, sec);
   var frameNote = R.frames ? " " + R.frames.charAt(0).toUpperCase() + R.frames.slice(1) + "." : "";
   var count = null;
@@ -41,7 +43,9 @@
   } else {  // nothing to accept, reject or download: no buttons that would do nothing
     el("p", { "class": "note", id: "nothing-to-decide", text: "Nothing to decide: the cleaning changed no sample, so " +
       "there is nothing to accept or reject and no decisions to download" + (flags.length ?
-      " (review mode, --steps detect, only flags: the flags below are what detection found)." : ".") + frameNote }, sec);
+      " (review mode, --steps detect, only flags: the flags below are what detection found)." : ".") +
+      (cuts.length ? " The cuts below change no sample either: they are named for you to decide about." : "") +
+      frameNote }, sec);
   }
 
   var rows = [];
@@ -75,6 +79,34 @@
   } else {
     el("p", { text: "The cleaning changed nothing." }, sec);
   }
+
+  // the cuts: a take made of two takes joined breaks at one frame. The cleaning changes no sample for a cut (its
+  // breaks confirm no repair), so a cut is no change to accept or reject: it is listed here, with its score and what
+  // it means, for a person to decide (split the take there, or keep it), and said in the summary above the viewer
+  if (cuts.length) {
+    var csec = el("div", { "class": "cuts", id: "cuts" }, sec);
+    el("h3", { text: "Cuts (" + cuts.length + ")" }, csec);
+    el("p", { "class": "note", text: "Where the whole body jumps at one frame: two takes joined, or frames dropped. " +
+      "The cleaning changed no sample for a cut, so there is nothing to accept or reject; you decide what to do " +
+      "with the take." }, csec);
+    var ctable = el("table", {}, csec), chead = el("tr", {}, el("thead", {}, ctable));
+    ["frame", "score", "what it means", "what the cleaning did", ""].forEach(function (h) { el("th", { text: h }, chead); });
+    var cbody = el("tbody", {}, ctable);
+    cuts.forEach(function (c) {
+      var tr = el("tr", { "data-cut": String(c.frame), "class": c.kind === "cut" ? "cut" : "cut possible" }, cbody);
+      el("td", { "class": "num", text: String(c.frame) }, tr);
+      el("td", { "class": "num", text: Math.round(100 * c.share) + " % of the joints", title: c.kind }, tr);
+      el("td", { "class": "reason", text: c.kind + ": " + c.meaning }, tr);
+      el("td", { "class": "outcome", text: c.did }, tr);
+      var jb = el("button", { type: "button", "class": "jump", text: "jump to frame " + c.frame }, el("td", { "class": "jump" }, tr));
+      jb.addEventListener("click", function () { goTo(null, c.frame); });
+    });
+    var said = document.getElementById("summary");
+    if (said) said.textContent += " " + plural(cuts.length, "cut") + " at frame" + (cuts.length === 1 ? " " : "s ") +
+      cuts.map(function (c) { return c.frame; }).join(", ") + " (two takes joined, or frames dropped): no sample " +
+      "changed for " + (cuts.length === 1 ? "it" : "them") + ", listed under the changes for you to decide.";
+  }
+  function plural(n, word) { return n + " " + word + (n === 1 ? "" : "s"); }
 
   // what detection flagged, and which rule flagged it: in review mode (--steps detect) all there is to see
   if (flags.length) {
@@ -138,7 +170,7 @@
   function goTo(joint, frame, stay) {
     var api = window.mocapkitReport;
     if (!api) return;
-    api.select(joint);
+    if (joint !== null) api.select(joint);  // a cut is of the whole body: no joint to select
     api.setFrame(frame);
     var v = document.querySelector(".viewer");
     if (!stay && v && v.scrollIntoView) v.scrollIntoView({ block: "start" });  // its bars and the figure
@@ -224,6 +256,7 @@
   window.mocapkitReview = {
     changes: function () { return list.map(function (c) { return c.id; }); },
     flags: function () { return flags.map(function (f) { return f.joint + ":" + f.first + "-" + f.last; }); },
+    cuts: function () { return cuts.map(function (c) { return c.frame; }); },
     decisions: function () { return JSON.parse(text()); },
     set: function (id, choice) { var k = list.map(function (c) { return c.id; }).indexOf(id); if (k >= 0) set(k, choice === "accept"); },
     jump: function (k) { jump(k, true); },
