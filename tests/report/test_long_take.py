@@ -98,3 +98,27 @@ def test_the_last_frame_can_be_reached(page):
     assert page.inner_text("#frame-label").startswith("frame 11999 / 11999")
     page.evaluate("() => { const s = document.getElementById('scrub'); s.value = s.max; s.dispatchEvent(new Event('input')); }")
     assert page.evaluate("() => window.mocapkitReport.frame()") == 11999
+
+
+def test_the_frames_around_each_cut_are_shown_where_the_take_is_thinned(tmp_path, takes):
+    """The walk joined end to end has a cut at every join (frame 343, 686, ...). Thinned to 2,000 of its 12,000
+    frames, the viewer kept every 6th frame and the cuts' frames only where that stride fell on them; a cut's
+    jump button then landed on the shown frame before it. Listed in the review, both frames around each cut are
+    shown."""
+    import base64
+
+    from mocapkit.cleaning.whole_take import take_cuts
+    from mocapkit.report.html import cut_rows
+
+    _, long, _ = takes
+    cuts = take_cuts(long)
+    assert [c.frame for c in cuts[:3]] == [343, 686, 1029] and len(cuts) == 34
+    review = {"changes": [], "decisions": {}, "cuts": cut_rows(cuts)}
+
+    def shown(path):
+        data = page_data(path)
+        return set(np.frombuffer(base64.b64decode(data["frameList"]), dtype="<i4").tolist())
+
+    around = {f for c in cuts for f in (c.frame - 1, c.frame)}
+    assert not around <= shown(write_report(tmp_path / "bare.html", long, long, max_frames=2000))
+    assert around <= shown(write_report(tmp_path / "cuts.html", long, long, max_frames=2000, review=review))

@@ -101,11 +101,6 @@ class Cut:
     share: float
 
     @property
-    def kind(self) -> str:
-        """``"cut"``: the report's and ``info``'s word for it."""
-        return "cut"
-
-    @property
     def meaning(self) -> str:
         """What the break means for a person deciding about it, one sentence."""
         return (f"{100 * self.share:.0f} % of the moving joints jump at once between frames {self.frame - 1} and "

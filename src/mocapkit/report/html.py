@@ -548,13 +548,13 @@ def write_report(
 def cut_rows(cuts) -> list[dict]:
     """The report's row of each :class:`~mocapkit.cleaning.take_breaks.Cut`: ``frame`` (the first frame after the
     break), ``first``/``last`` (the frames either side of it, shown in full by the viewer), ``share`` (the score: the
-    share of the moving joints breaking there, 0-1), ``kind`` ("cut" or "possible cut"), ``meaning`` and ``did``
+    share of the moving joints breaking there, 0-1), ``meaning`` and ``did``
     (what the cleaning did: nothing, no sample changed for it). A cut changes no sample, so it is no change to
     accept or reject: a person sees it and decides (split the take there, or keep it)."""
     from ..cleaning.take_breaks import CUT_KEPT
 
     return [{"frame": int(c.frame), "first": max(0, int(c.frame) - 1), "last": int(c.frame), "share": float(c.share),
-             "kind": c.kind, "meaning": c.meaning, "did": CUT_KEPT} for c in cuts]
+             "meaning": c.meaning, "did": CUT_KEPT} for c in cuts]
 
 
 def write_clean_report(path, original: Motion, result, *, inp=None, output: str = "", record="", decisions=None,

@@ -93,10 +93,10 @@
     ["frame", "score", "what it means", "what the cleaning did", ""].forEach(function (h) { el("th", { text: h }, chead); });
     var cbody = el("tbody", {}, ctable);
     cuts.forEach(function (c) {
-      var tr = el("tr", { "data-cut": String(c.frame), "class": c.kind === "cut" ? "cut" : "cut possible" }, cbody);
+      var tr = el("tr", { "data-cut": String(c.frame) }, cbody);
       el("td", { "class": "num", text: String(c.frame) }, tr);
-      el("td", { "class": "num", text: Math.round(100 * c.share) + " % of the joints", title: c.kind }, tr);
-      el("td", { "class": "reason", text: c.kind + ": " + c.meaning }, tr);
+      el("td", { "class": "num", text: Math.round(100 * c.share) + " % of the joints" }, tr);
+      el("td", { "class": "reason", text: c.meaning }, tr);
       el("td", { "class": "outcome", text: c.did }, tr);
       var jb = el("button", { type: "button", "class": "jump", text: "jump to frame " + c.frame }, el("td", { "class": "jump" }, tr));
       jb.addEventListener("click", function () { goTo(null, c.frame); });
