@@ -282,9 +282,17 @@ def spiked_long_take(walk):
     return spiked, take, changed, j
 
 
-def test_long_take_holds_every_frame_of_a_change(tmp_path, walk):
+@pytest.fixture(scope="module")
+def spiked_report(tmp_path_factory, walk):
+    """The spiked 1000-frame take and its report at max_frames=400 (written once, read by three tests)."""
     spiked, take, changed, j = spiked_long_take(walk)
-    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+    out = write_report(tmp_path_factory.mktemp("spiked") / "r.html", spiked, take, flags=changed, changed=changed,
+                       max_frames=400)
+    return spiked, take, j, out
+
+
+def test_long_take_holds_every_frame_of_a_change(spiked_report):
+    spiked, take, j, out = spiked_report
     data = page_data(out)
     frames = frame_list(data)
     assert data["stride"] == 3 and data["frames"] == 1000 and data["detail"] == "full"
@@ -377,11 +385,19 @@ def sixty_second_case(walk):
     return corrupted, take, mdm, mdm > 0.5, mask
 
 
-def test_sixty_second_take_stays_a_few_megabytes(tmp_path, walk):
+@pytest.fixture(scope="module")
+def sixty_second_report(tmp_path_factory, walk):
+    """The 60 s case and its report at the default settings (written once: 7,200 frames, two tests read it)."""
     corrupted, take, mdm, flags, changed = sixty_second_case(walk)
+    out = write_report(tmp_path_factory.mktemp("sixty") / "long.html", corrupted, take, mdm=mdm, flags=flags,
+                       changed=changed)
+    return corrupted, take, out
+
+
+def test_sixty_second_take_stays_a_few_megabytes(sixty_second_report):
+    corrupted, take, out = sixty_second_report
     F = take.num_frames
     assert F == 7200 and F <= DEFAULT_MAX_FRAMES
-    out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
     size_mb = out.stat().st_size / 1e6
     print(f"60 s at 120 fps: {size_mb:.2f} MB")
     data = page_data(out)
@@ -598,7 +614,8 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
     pg.js("window.mocapkitReport.pause()")
     assert pg.errors == []
 
-    long_page = write_report(tmp_path / "long.html", long_take(walk, 20.0), long_take(walk, 20.0), max_frames=600)
+    twenty = long_take(walk, 20.0)
+    long_page = write_report(tmp_path / "long.html", twenty, twenty, max_frames=600)
     pg2 = open_page(long_page)
     note = pg2.page.inner_text("#downsample-note")
     assert "every 4th frame, the last one (601 of 2400)" in note
@@ -607,9 +624,8 @@ def test_gappy_and_downsampled_pages_work(open_page, tmp_path, walk):
     assert pg2.errors == []
 
 
-def test_sixty_second_page_loads_and_scrubs(open_page, tmp_path, walk):
-    corrupted, take, mdm, flags, changed = sixty_second_case(walk)
-    out = write_report(tmp_path / "long.html", corrupted, take, mdm=mdm, flags=flags, changed=changed)
+def test_sixty_second_page_loads_and_scrubs(open_page, sixty_second_report):
+    corrupted, take, out = sixty_second_report
     pg = open_page(out)
     # the page decodes both motions as forward kinematics gives them (the cleaned one from its patch)
     scale = unit_scale_cm(take.skeleton)
@@ -752,9 +768,8 @@ RING_JS = """() => {
 }"""
 
 
-def test_long_take_page_jumps_to_and_draws_the_changed_frames(open_page, tmp_path, walk):
-    spiked, take, changed, j = spiked_long_take(walk)
-    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+def test_long_take_page_jumps_to_and_draws_the_changed_frames(open_page, spiked_report):
+    spiked, take, _, out = spiked_report
     data = page_data(out)
     shown = frame_list(data).tolist()
     pg = open_page(out)
@@ -798,9 +813,8 @@ def test_long_take_page_jumps_to_and_draws_the_changed_frames(open_page, tmp_pat
     assert pg.errors == []
 
 
-def test_long_take_plays_the_change_at_every_frame(open_page, tmp_path, walk):
-    spiked, take, changed, j = spiked_long_take(walk)
-    out = write_report(tmp_path / "r.html", spiked, take, flags=changed, changed=changed, max_frames=400)
+def test_long_take_plays_the_change_at_every_frame(open_page, spiked_report):
+    spiked, take, _, out = spiked_report
     shown = set(frame_list(page_data(out)).tolist())
     pg = open_page(out)
     pg.page.select_option("#speed", "0.1")  # 12 take frames a second
