@@ -75,8 +75,14 @@ def test_clean_an_amc_with_its_asf_and_file_context():
     assert "context" in res.steps[1].method
 
 
-def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
-    res = mocapkit.clean(samples.path("Eb015pr.c3d"))
+@pytest.fixture(scope="module")
+def plain_capture():
+    """The bundled Eb015pr.c3d cleaned by the library with no arguments (read, never changed, by several tests)."""
+    return mocapkit.clean(samples.path("Eb015pr.c3d"))
+
+
+def test_clean_takes_a_marker_capture_to_the_marker_cleaner(plain_capture):
+    res = plain_capture
     assert type(res).__name__ == "MarkerCleanResult"
     assert not res.markers.missing().any() and res.original.missing().any()
     for kwargs in ({"steps": "fill,detect"}, {"threshold": 0.8}, {"drifts": True}, {"context": "none"}):
@@ -87,13 +93,12 @@ def test_clean_takes_a_marker_capture_to_the_marker_cleaner():
 @pytest.fixture(scope="module")
 def capture_run(tmp_path_factory):
     """The bundled Eb015pr.c3d (26 markers, 450 frames; its own gaps and spikes) cleaned by the CLI with a report:
-    (folder, input, output, record)."""
-    from mocapkit.cli import main
-
+    (folder, input, output, record, what the command printed on stdout)."""
     d = tmp_path_factory.mktemp("markers")
     inp = samples.path("Eb015pr.c3d")
-    assert main(["clean", str(inp), "-o", str(d / "out.c3d")]) == 0
-    return d, inp, d / "out.c3d", d / "out.clean.npz"
+    code, stdout, err = _cli("clean", inp, "-o", d / "out.c3d")
+    assert code == 0, err
+    return d, inp, d / "out.c3d", d / "out.clean.npz", stdout
 
 
 def _cli(*args):
@@ -102,9 +107,9 @@ def _cli(*args):
     return run(*args)
 
 
-def test_review_mode_of_a_marker_capture_changes_nothing_and_says_what_the_cli_says(tmp_path):
+def test_review_mode_of_a_marker_capture_changes_nothing_and_says_what_the_cli_says(tmp_path, plain_capture):
     inp = samples.path("Eb015pr.c3d")
-    plain, res = mocapkit.clean(inp), mocapkit.clean(inp, steps="detect")
+    plain, res = plain_capture, mocapkit.clean(inp, steps="detect")
     assert res.review and res.output is res.original and res.fixes == plain.fixes and len(res.fixes) == 16
     assert np.array_equal(res.output.positions, plain.original.positions, equal_nan=True)
     code, out, err = _cli("clean", inp, "-o", tmp_path / "r.c3d", "--steps", "detect")
@@ -121,14 +126,14 @@ def _decisions(folder, inp, choices, stamped=True, name="d.json"):
     return marker_decisions_file(folder, inp, choices, name, stamped)
 
 
-def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run, tmp_path):
+def test_decisions_apply_to_a_marker_capture_as_the_cli_applies_them(capture_run, plain_capture, tmp_path):
     """The same file gives the same capture and the same summary lines in the library and in the CLI, from a new
     cleaning and from the record; the rejected change's samples are the input's, every other sample plain clean's."""
     from mocapkit.io import load_markers
 
-    d, inp, out, record = capture_run
+    d, inp, out, record, _ = capture_run
     path = _decisions(d, inp, {"foreign:LFT3:0-42": "reject", "gap:PV2:403-449": "reject"})
-    plain = mocapkit.clean(inp)
+    plain = plain_capture
     for rec in (None, record):
         res = mocapkit.clean(inp, decisions=path, record=rec)
         assert res.decided is not None and len(res.fixes) == len(plain.fixes) - 2
@@ -151,7 +156,7 @@ def test_marker_decisions_as_a_dict_apply_as_their_file_does(capture_run):
     "the decisions given")."""
     import json
 
-    d, inp, out, record = capture_run
+    d, inp, out, record, _ = capture_run
     path = _decisions(d, inp, {"foreign:LFT3:0-42": "reject"}, name="dict.json")
     doc = json.loads(path.read_text())
     a, b = (mocapkit.clean(inp, decisions=x, record=record) for x in (doc, path))
@@ -167,7 +172,7 @@ def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture
     line the CLI says (the record as ``record=``, the CLI's ``--record``)."""
     from mocapkit.io import load_markers, save_markers
 
-    d, inp, out, record = capture_run
+    d, inp, out, record, _ = capture_run
     hand = _decisions(d, inp, {"foreign:LFT3:0-42": "reject"}, stamped=False, name="hand.json")
     with pytest.raises(mocapkit.MocapFormatError) as exc:
         mocapkit.clean(inp, decisions=hand)
@@ -186,7 +191,8 @@ def test_marker_decisions_are_refused_in_the_library_with_the_clis_words(capture
         mocapkit.clean(inp, record=record)
 
 
-def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does(tmp_path, capsys):
+def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does(tmp_path, capsys, plain_capture,
+                                                                                   capture_run):
     """An AMC numbers its frames from 1, a C3D from its header's first frame: ``mocapkit clean`` says how its 0-based
     frames relate to them, and the library's summary says the same line; a Motion numbers no frames."""
     import shutil
@@ -203,10 +209,9 @@ def test_the_summary_says_how_frames_relate_to_the_files_numbers_as_the_cli_does
     assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
     assert not any("is frame 10 here" in x for x in mocapkit.clean(bad, steps="detect").summary())
     c3d = samples.path("Eb015pr.c3d")
-    lines = mocapkit.clean(c3d).summary()
+    lines = plain_capture.summary()
     assert lines[-1] == note.format("Eb015pr.c3d"), lines
-    assert main(["clean", str(c3d), "-o", str(tmp_path / "markers.c3d")]) == 0
-    assert f"\n  {lines[-1]}\n" in capsys.readouterr().out
+    assert f"\n  {lines[-1]}\n" in capture_run[-1]  # `mocapkit clean Eb015pr.c3d -o out.c3d` printed it
     # a part of the take: its frame 0 is the capture's frame 101 (it said "Eb015pr numbers its frames from 101",
     # though Eb015pr.c3d numbers them from 1)
     part = mocapkit.io.load_markers(c3d)[100:]
