@@ -1,5 +1,6 @@
 """C3D trials longer than the 65,535 frames a header can state: read whole, written so every reader finds them."""
 
+import functools
 import struct
 import warnings
 
@@ -15,14 +16,18 @@ FRAMES = 70_000  # past the header's cap, 4,465 frames more
 M, CHANNELS, RATIO = 3, 2, 2
 
 
+@functools.lru_cache(maxsize=None)
 def _known_take(frames: int = FRAMES):
     """Points (F, M, 3) float32-exact mm, fourth words (F, M) (residual byte, camera byte, -1 missing) and
-    analogs (A, F * ratio): what the generated file holds, for comparing what is read with."""
+    analogs (A, F * ratio): what the generated file holds, for comparing what is read with. Drawn once and
+    read-only: the tests share them."""
     rng = np.random.default_rng(7)
     xyz = (np.cumsum(rng.normal(size=(frames, M, 3)), axis=0) * 10).astype(np.float32).astype(np.float64)
     words = (rng.integers(0, 100, size=(frames, M)) | (rng.integers(1, 127, size=(frames, M)) << 8)).astype(np.int64)
     words[::997, 1] = -1  # missing samples, some past the cap
     analogs = rng.normal(size=(CHANNELS, frames * RATIO)).astype(np.float32).astype(np.float64)
+    for a in (xyz, words, analogs):
+        a.setflags(write=False)
     return xyz, words, analogs
 
 
@@ -66,14 +71,21 @@ def _long_c3d(path, *, trial: bool = True, keep_frames: int | None = None):
     return path
 
 
+@pytest.fixture(scope="module")
+def long_trial(tmp_path_factory):
+    """The :func:`_long_c3d` file with its TRIAL length, written once (ezc3d, 70,000 frames) and only read by the
+    tests that take it."""
+    return _long_c3d(tmp_path_factory.mktemp("long") / "long.c3d")
+
+
 def _expected_positions(xyz, words):
     out = xyz.copy()
     out[words < 0] = np.nan
     return out
 
 
-def test_every_frame_of_a_long_trial_is_read(tmp_path):
-    path = _long_c3d(tmp_path / "long.c3d")
+def test_every_frame_of_a_long_trial_is_read(long_trial):
+    path = long_trial
     ms = read_c3d(path)
     xyz, words, analogs = _known_take()
     assert ms.num_frames == FRAMES
@@ -83,9 +95,9 @@ def test_every_frame_of_a_long_trial_is_read(tmp_path):
     assert np.array_equal(ms.source.analogs, analogs)
 
 
-def test_long_trial_agrees_with_the_c3d_package(tmp_path):
+def test_long_trial_agrees_with_the_c3d_package(long_trial):
     c3d = pytest.importorskip("c3d")
-    path = _long_c3d(tmp_path / "long.c3d")
+    path = long_trial
     ms = read_c3d(path)
     with open(path, "rb") as fh, warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -121,9 +133,8 @@ def test_capped_header_with_bytes_no_count_of_frames_explains_is_refused(tmp_pat
     assert long_trial_frames(tmp_path / "odd.c3d", bytes(raw[:-300]), {}, FRAME_CAP, points, 0, -1.0) == FRAME_CAP + 1
 
 
-def test_long_take_written_and_read_back_equal(tmp_path):
-    xyz, words, analogs = _known_take()
-    ms = read_c3d(_long_c3d(tmp_path / "long.c3d"))
+def test_long_take_written_and_read_back_equal(tmp_path, long_trial):
+    ms = read_c3d(long_trial)
     out = tmp_path / "out.c3d"
     write_c3d(ms, out)
     back = read_c3d(out)
@@ -154,8 +165,8 @@ def test_written_long_take_states_its_length_for_every_reader(tmp_path):
     assert np.array_equal(read_c3d(out).positions, ms.positions)
 
 
-def test_short_take_drops_a_stale_long_frame_count(tmp_path):
-    ms = read_c3d(_long_c3d(tmp_path / "long.c3d"))
+def test_short_take_drops_a_stale_long_frame_count(tmp_path, long_trial):
+    ms = read_c3d(long_trial)
     out = tmp_path / "part.c3d"
     write_c3d(ms[:100], out)
     import ezc3d
