@@ -176,3 +176,34 @@ def test_a_twist_handed_between_the_joints_of_one_arm_is_no_swap(shared_data):
     flags[12:21, right] = True
     found = partner_swaps(q, mirrored_rotations(bad), flags, pairs, parents, 30.0)
     assert [(s.joint, s.partner, s.start, s.end, s.confirmed) for s in found] == [(right, left, 10, 20, True)]
+
+
+def test_the_joins_read_from_a_tracks_steps_are_the_joins_of_its_frames():
+    """end_join from join_steps (made once per track) gives, bit for bit, the angular acceleration of the join's
+    own frames with the run written in (the second differences at its two frames), at every frame of a real clip,
+    both ends, on the joints' values and on their orientations in the body, the take's ends included."""
+    from mocapkit.cleaning.ssa.guard import angular_acceleration
+    from mocapkit.cleaning.ssa.swap_exchange import end_join, join_steps, parent_orientations
+
+    take = mocapkit.load(mocapkit.samples.path("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc"))
+    q, mirrored = take.rotations, mirrored_rotations(take)
+    frames = parent_orientations(q, take.skeleton.parents)
+    F = len(q)
+
+    def windowed(track, new, f, entry):
+        lo, hi = (max(f - 2, 0), min(f + 2, F)) if entry else (max(f - 1, 0), min(f + 3, F))
+        if (f == 0) if entry else (f == F - 1):
+            return 0.0, 0.0
+        inside = np.arange(lo, hi) >= f if entry else np.arange(lo, hi) <= f
+        written = np.where(inside[:, None], new[lo:hi], track[lo:hi])
+        at = [i for i in ([f - 1 - lo, f - lo] if entry else [f - lo, f + 1 - lo]) if 0 < i < hi - lo - 1]
+        return ((float(angular_acceleration(written)[at].max()), float(angular_acceleration(track[lo:hi])[at].max()))
+                if at else (0.0, 0.0))
+
+    for j in (take.skeleton.index("lfemur"), take.skeleton.index("rhumerus"), take.skeleton.index("lradius")):
+        for track, new in ((q[:, j], mirrored[:, j]),
+                           (R.quaternion_multiply(frames[:, j], q[:, j]), R.quaternion_multiply(frames[:, j], mirrored[:, j]))):
+            steps = join_steps(track, new)
+            for f in range(F):
+                for entry in (True, False):
+                    assert end_join(steps, f, entry) == windowed(track, new, f, entry), (j, f, entry)

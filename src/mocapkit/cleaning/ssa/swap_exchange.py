@@ -41,7 +41,7 @@ from ... import rotations as R
 from ..runs import true_runs
 
 __all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "pair_exchange", "parent_orientations", "partner_swaps",
-           "swap_exchanges", "SWAP_JOIN_RATIO"]
+           "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -162,28 +162,47 @@ class PartnerSwap:
 
 def _join_frames(f: int, entry: bool, F: int) -> tuple[int, int]:
     """``(lo, hi)``: the frames ``lo .. hi - 1`` of a take of ``F`` frames that the join of a run starting
-    (``entry``) or ending at frame ``f`` reads (:func:`_end_join`): two on each side of it."""
+    (``entry``) or ending at frame ``f`` reads (:func:`end_join`): two on each side of it."""
     lo, hi = (f - 2, f + 2) if entry else (f - 1, f + 3)
     return max(lo, 0), min(hi, F)
 
 
-def _end_join(q: np.ndarray, new: np.ndarray, f: int, entry: bool) -> tuple[float, float]:
-    """``(after, before)``: the angular acceleration (:func:`~.guard.end_roughness`) at the join of a run that
-    starts (``entry``) or ends at frame ``f`` of the track ``q`` (F, 4), with the run's values ``new`` (F, 4)
-    written from ``f`` on (entry) or up to ``f``, and as ``q`` is; 0 at the take's ends. The join reads two
-    frames on each side of it only, so each end is judged alone."""
-    from .guard import angular_acceleration
+def join_steps(q: np.ndarray, new: np.ndarray) -> np.ndarray:
+    """(4, F - 1, 3) radians: the steps from each frame to the next (rotation vectors, as
+    :func:`~.guard.angular_acceleration` takes them) of the track ``q`` (F, 4), of the run's values ``new`` (F, 4),
+    into the run (``q[i]`` to ``new[i + 1]``) and out of it (``new[i]`` to ``q[i + 1]``): every step a join of a
+    run of ``new`` written into ``q`` reads (:func:`end_join`), made once per track for all its candidate ends.
+    Each step is its own frames' product and logarithm, so the numbers are the ones the join's own frames give."""
+    q = np.asarray(q, dtype=np.float64)
+    new = np.asarray(new, dtype=np.float64)
+    to = np.stack([q[1:], new[1:], new[1:], q[1:]])
+    since = np.stack([q[:-1], new[:-1], q[:-1], new[:-1]])
+    return R.quaternion_to_rotvec(R.quaternion_multiply(to, R.quaternion_inverse(since)))
 
-    F = len(q)
-    lo, hi = _join_frames(f, entry, F)
+
+def end_join(steps: np.ndarray, f: int, entry: bool) -> tuple[float, float]:
+    """``(after, before)``: the angular acceleration (degrees per frame squared, :func:`~.guard.angular_acceleration`)
+    at the join of a run that starts (``entry``) or ends at frame ``f`` of a track, with the run's values written
+    from ``f`` on (entry) or up to ``f``, and as the track is; 0 at the take's ends. ``steps``: the track's
+    :func:`join_steps`. The join reads the second differences at the frame before and the run's first frame (entry)
+    or its last frame and the frame after, each at frames 1 .. F - 2 only, so each end is judged alone."""
+    old, run, into, out_of = steps
+    F = old.shape[0] + 1
     if (f == 0) if entry else (f == F - 1):
         return 0.0, 0.0
-    inside = np.arange(lo, hi) >= f if entry else np.arange(lo, hi) <= f
-    track = np.where(inside[:, None], new[lo:hi], q[lo:hi])
-    at = [f - 1 - lo, f - lo] if entry else [f - lo, f + 1 - lo]
-    at = [i for i in at if 0 < i < hi - lo - 1]
-    return (float(angular_acceleration(track)[at].max()) if at else 0.0,
-            float(angular_acceleration(q[lo:hi])[at].max()) if at else 0.0)
+    at = [g for g in ((f - 1, f) if entry else (f, f + 1)) if 0 < g < F - 1]
+    if not at:
+        return 0.0, 0.0
+
+    def written(s: int) -> np.ndarray:  # the step s -> s + 1 with the run written in
+        if entry:
+            return old[s] if s < f - 1 else into[s] if s == f - 1 else run[s]
+        return run[s] if s < f else out_of[s] if s == f else old[s]
+
+    after = np.stack([written(g) - written(g - 1) for g in at])
+    before = np.stack([old[g] - old[g - 1] for g in at])
+    return (float(np.degrees(np.linalg.norm(after, axis=-1)).max()),
+            float(np.degrees(np.linalg.norm(before, axis=-1)).max()))
 
 
 def parent_orientations(rotations: np.ndarray, parents) -> np.ndarray:
@@ -271,13 +290,16 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
             unsure[:, k] = unsure[:, parents[k]] | doubt[:, parents[k]]
         return R.quaternion_multiply(frames, q), R.quaternion_multiply(frames, mirrored), unsure
 
+    steps: dict = {}  # (joint, of its value alone?) -> its join_steps, for the take as it stands
+
     def join(k, f, entry):
-        """:func:`_end_join` of joint ``k`` at frame ``f``: of its orientation in the body, or of its value where
+        """:func:`end_join` of joint ``k`` at frame ``f``: of its orientation in the body, or of its value where
         an ancestor is still to repair over the frames the join reads."""
         lo, hi = _join_frames(f, entry, F)
-        if unsure[lo:hi, k].any():
-            return _end_join(q[:, k], mirrored[:, k], f, entry)
-        return _end_join(body[:, k], body_mirrored[:, k], f, entry)
+        alone = bool(unsure[lo:hi, k].any())
+        if (k, alone) not in steps:
+            steps[k, alone] = join_steps(q[:, k], mirrored[:, k]) if alone else join_steps(body[:, k], body_mirrored[:, k])
+        return end_join(steps[k, alone], f, entry)
 
     body, body_mirrored, unsure = in_body(q)
     # a limb's pair before its children's, which are judged on the chain as its exchange puts it back
@@ -325,6 +347,7 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
                     q[a2 : b2 + 1, [j, p]] = mirrored[a2 : b2 + 1, [j, p]]
                     doubt[a2 : b2 + 1, [j, p]] = False
                     body, body_mirrored, unsure = in_body(q)
+                    steps.clear()
     return out
 
 
