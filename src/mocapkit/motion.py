@@ -127,6 +127,15 @@ def readonly_view(a: np.ndarray) -> np.ndarray:
     return v
 
 
+def _joint_euler(q: np.ndarray, skeleton, joints, order: str) -> np.ndarray:
+    """(n, len(joints), len(order)) degrees: the Euler angles of the rotations ``q`` (n, len(joints), 4) of
+    ``joints`` (of one rotation ``order``) in their channel frame (an ASF ``axis`` removed)."""
+    if skeleton.axes is not None:
+        c = skeleton.axes[joints]
+        q = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), q), c)
+    return R.quaternion_to_euler(q, order)
+
+
 def frozen(a: np.ndarray) -> np.ndarray:
     """``a`` as a container keeps it: a read-only view of memory nothing can write (a slice of another frozen
     array), else a read-only view of a read-only copy, so that the caller's array changing afterwards does not
@@ -516,10 +525,14 @@ class Motion:
         if self.source_file is not None:  # the file's frames the part holds: those of the take's, sliced
             held = range(self.num_frames) if frames is None else frames
             frames = held[key] if len(held) == self.num_frames else range(0)
-        return dataclasses.replace(
+        out = dataclasses.replace(
             self, rotations=self.rotations[key], root_positions=self.root_positions[key], fps=fps, translations=tr,
             source_frames=frames,
         )
+        seed = self._euler_source()  # the frames' Euler angles are the take's (each frame its own)
+        if seed is not None:
+            object.__setattr__(out, "_euler_seed", (seed[0][key], seed[1][key]))
+        return out
 
     # -- forward kinematics -------------------------------------------------
     def local_offsets(self) -> np.ndarray:
@@ -628,34 +641,90 @@ class Motion:
         """
         sk = self.skeleton
         local = self.local_offsets()
-        # Euler angles per joint, one vectorised conversion per rotation order (a skeleton of
-        # 100,000 joints costs one call per order, not one per joint).
-        by_order: dict[str, list[int]] = {}
-        for j in range(sk.num_joints):
-            order = sk.rotation_order(j)
-            if order:
-                by_order.setdefault(order, []).append(j)
-        angles: dict[int, np.ndarray] = {}
-        for order, js in by_order.items():
-            q = self.rotations[:, js]
-            if sk.axes is not None:
-                c = sk.axes[js]
-                q = R.quaternion_multiply(R.quaternion_multiply(R.quaternion_conjugate(c), q), c)
-            eul = R.quaternion_to_euler(q, order)  # (F, len(js), len(order))
-            for i, j in enumerate(js):
-                angles[j] = eul[:, i]
+        angles = self.euler_angles()
         cols = []
+        k = 0
         for j in range(sk.num_joints):
-            k = 0
             for ch in sk.joint_channels(j):
                 if ch.endswith("position"):
                     cols.append(local[:, j, "XYZ".index(ch[0])])
                 elif ch.endswith("scale"):
                     cols.append(np.ones(self.num_frames))
                 else:
-                    cols.append(angles[j][:, k])
+                    cols.append(angles[:, k])
                     k += 1
         return np.stack(cols, axis=1) if cols else np.zeros((self.num_frames, 0))
+
+    def euler_angles(self) -> np.ndarray:
+        """(F, R) degrees: the rotation channels of :meth:`channel_values` alone, joint by joint in file order.
+
+        Made once per Motion (its arrays are read-only) and returned as a new array each call. A Motion made by
+        :meth:`with_rotations` or sliced from one that has them converts only the cells whose rotation differs,
+        bit for bit, from the rotations they were made of: the conversion is the cell's own
+        (:func:`mocapkit.rotations.quaternion_to_euler` per (frame, joint)), so the angles are the ones a whole
+        conversion gives, and ``clean``'s networks read a take that fill, denoise and repair change in a few cells
+        without converting the whole take again at each.
+        """
+        made = self.__dict__.get("_euler")
+        if made is None:
+            seed = self.__dict__.get("_euler_seed")
+            made = self._convert_euler(seed)
+            made.flags.writeable = False
+            object.__setattr__(self, "_euler", made)  # a cache beside the frozen fields, as missing()'s
+            self.__dict__.pop("_euler_seed", None)
+        return made.copy()
+
+    def _convert_euler(self, seed) -> np.ndarray:
+        """(F, R) the Euler angles of every rotation cell, or, with ``seed`` ``(rotations (F, J, 4), angles (F, R))``
+        of the same skeleton, of the cells whose rotation differs in any bit from ``seed``'s (joint by joint), the
+        others copied from it."""
+        sk = self.skeleton
+        starts, c = {}, 0
+        by_order: dict[str, list[int]] = {}  # one vectorised conversion per rotation order
+        for j in range(sk.num_joints):
+            order = sk.rotation_order(j)
+            if order:
+                by_order.setdefault(order, []).append(j)
+                starts[j] = c
+                c += len(order)
+        if seed is None:
+            out = np.empty((self.num_frames, c))
+            for order, js in by_order.items():
+                eul = _joint_euler(self.rotations[:, js], sk, js, order)  # (F, len(js), len(order))
+                for i, j in enumerate(js):
+                    out[:, starts[j] : starts[j] + len(order)] = eul[:, i]
+            return out
+        before, out = seed[0], np.array(seed[1])
+        q = self.rotations
+        changed = ~(q.view(np.int64) == before.view(np.int64)).all(axis=-1)  # (F, J): any bit, NaN's included
+        for order, js in by_order.items():
+            for j in js:
+                frames = np.flatnonzero(changed[:, j])
+                if len(frames):
+                    out[frames, starts[j] : starts[j] + len(order)] = _joint_euler(q[frames][:, [j]], sk, [j], order)[:, 0]
+        return out
+
+    def _euler_source(self):
+        """``(rotations, angles)`` a Motion of the same skeleton derived from this one starts its Euler angles from
+        (:meth:`euler_angles`): this one's own, or those it was itself derived from; None if neither is made."""
+        made = self.__dict__.get("_euler")
+        return (self.rotations, made) if made is not None else self.__dict__.get("_euler_seed")
+
+    def euler_from(self, like: "Motion") -> "Motion":
+        """This Motion, its :meth:`euler_angles` (when not made yet) to convert only the cells whose rotation
+        differs from ``like``'s (a Motion of the same skeleton and frames it was made from: a step's result from
+        the take it changed); itself unchanged where the skeletons or frame counts differ."""
+        seed = like._euler_source()
+        if (seed is not None and "_euler" not in self.__dict__ and self.skeleton is like.skeleton
+                and self.rotations.shape == seed[0].shape):
+            object.__setattr__(self, "_euler_seed", seed)  # a cache beside the frozen fields
+        return self
+
+    def with_rotations(self, rotations: np.ndarray, **fields) -> "Motion":
+        """This Motion with ``rotations`` (F, J, 4) (and any other ``fields`` but the skeleton and frame count, as
+        ``dataclasses.replace`` takes them), whose :meth:`euler_angles` convert only the cells whose rotation
+        differs from this one's (:meth:`euler_from`)."""
+        return dataclasses.replace(self, rotations=rotations, **fields).euler_from(self)
 
     @classmethod
     def from_channel_values(

@@ -444,7 +444,7 @@ def guard(motion: Motion, cells: np.ndarray | None, run, keep: np.ndarray | None
         kept |= np.asarray(keep, dtype=bool) & judged
     if not kept.any():
         return Guarded(out, method, note, kept)
-    around = dataclasses.replace(motion, rotations=np.where(kept[..., None], np.nan, motion.rotations))
+    around = motion.with_rotations(np.where(kept[..., None], np.nan, motion.rotations))  # Euler angles: the kept cells'
     out, method, note = run(around, judged & ~kept)
     kept |= kept_cells(motion.rotations, out.rotations, judged, std, memo)
     rot = np.where(kept[..., None], motion.rotations, out.rotations)

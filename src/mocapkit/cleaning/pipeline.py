@@ -559,7 +559,8 @@ def clean(
         t = time.perf_counter()
         # the path `mocapkit fill` takes too (whole_take.fill_take)
         done = fill_take(motion, models.get("ebd"), models.get("ebf"), zeros=found_zeros)
-        cur, filled, note = done.motion, done.filled, done.note
+        # the filled take's Euler angles (the networks' channels) converted in its filled cells alone
+        cur, filled, note = done.motion.euler_from(motion), done.filled, done.note
         if note:
             notes.append(note)
         for warn in done.warnings:  # a warning line, as a fallback's note is
@@ -605,7 +606,7 @@ def clean(
             denoised, den_rot = differing(cur.rotations, rot), rot
             # repair works on the take as filled, denoised after it, keeping the cells this denoise kept
             undenoised, redo = cur, (noisy, left, guarded)
-            cur = dataclasses.replace(cur, rotations=rot)
+            cur = cur.with_rotations(rot)
             noise[lo:hi] = sub_noise
             extra = (f"{plural(int(noisy.sum()), 'noisy cell')} (level > {noise_deg:g} deg) on "
                      f"{plural(int(noisy.any(axis=0).sum()), 'joint')}")
@@ -661,7 +662,7 @@ def clean(
         # against the same context)
         done = (repair_whole(cur, det, foot_skate=foot_skate, poses=poses) if redo is None else
                 repair_whole(undenoised, det, context, foot_skate=foot_skate, poses=poses))
-        cur, repaired = done.motion, done.changed
+        cur, repaired = done.motion.euler_from(cur), done.changed
         if redo is not None and repaired.any():  # the noisy cells denoised again, around the repaired ones
             # the cells the first denoise kept as they came are kept again: what the record says is what is written
             # (one the repair changed is kept as the repair made it: denoised alone between kept cells, it was read
@@ -670,7 +671,7 @@ def clean(
             again += [_repaired_kept_note(kept_again & repaired[lo:hi], cur.skeleton.joint_names)]
             again = [x for x in again if x]
             denoised = differing(cur.rotations, rot)
-            cur = dataclasses.replace(cur, rotations=rot)
+            cur = cur.with_rotations(rot)
             notes[at:at + len(den_notes)] = again  # the lines of the denoise written, in the first one's place
             den_record = dataclasses.replace(den_record, cells=int(denoised.sum()),
                                              note="; ".join([extra, *again]))
