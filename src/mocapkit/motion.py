@@ -710,6 +710,11 @@ class Motion:
         made = self.__dict__.get("_euler")
         return (self.rotations, made) if made is not None else self.__dict__.get("_euler_seed")
 
+    def __getstate__(self) -> dict:
+        """The fields (and :meth:`missing`'s mask) to pickle, without the Euler angles and those they start from:
+        a Motion sent to another process carries no earlier take's arrays (they are made again there on use)."""
+        return {k: v for k, v in self.__dict__.items() if k not in ("_euler", "_euler_seed")}
+
     def euler_from(self, like: "Motion") -> "Motion":
         """This Motion, its :meth:`euler_angles` (when not made yet) to convert only the cells whose rotation
         differs from ``like``'s (a Motion of the same skeleton and frames it was made from: a step's result from
