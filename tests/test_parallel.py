@@ -151,15 +151,22 @@ def test_silent_peer_times_out():
         server.close()
 
 
-def test_real_scheduler_passes():
+@pytest.fixture(scope="module")
+def cluster():
+    """One local Dask cluster (a scheduler and one single-threaded worker process) that the tests of a real scheduler
+    share: each start costs a worker process and its imports; none of them changes the cluster for the next."""
     distributed = pytest.importorskip("distributed")
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        assert check_executor(cluster.scheduler_address) == cluster.scheduler_address
-        assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False) == [1, 4, 9]
-        assert map_ordered(worker_state, [0], executor=cluster.scheduler_address, progress=False)[0][1] is True  # the client waits
-        worker = next(iter(cluster.scheduler_info["workers"]))  # speaks Dask, but is no scheduler
-        with pytest.raises(MocapError, match="cannot start a Dask client there"):
-            map_ordered(square, [1, 2], executor=worker, progress=False)
+        yield cluster
+
+
+def test_real_scheduler_passes(cluster):
+    assert check_executor(cluster.scheduler_address) == cluster.scheduler_address
+    assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False) == [1, 4, 9]
+    assert map_ordered(worker_state, [0], executor=cluster.scheduler_address, progress=False)[0][1] is True  # the client waits
+    worker = next(iter(cluster.scheduler_info["workers"]))  # speaks Dask, but is no scheduler
+    with pytest.raises(MocapError, match="cannot start a Dask client there"):
+        map_ordered(square, [1, 2], executor=worker, progress=False)
 
 
 def test_a_scheduler_without_workers_is_one_line_not_a_wait(monkeypatch):
@@ -174,20 +181,18 @@ def test_a_scheduler_without_workers_is_one_line_not_a_wait(monkeypatch):
         assert time.monotonic() - t0 < 30
 
 
-def test_waiting_on_a_remote_scheduler_does_not_spin(monkeypatch):
+def test_waiting_on_a_remote_scheduler_does_not_spin(monkeypatch, cluster):
     """The client looks at the workers about once a second while it waits (a deadline set once made every later
     look immediate: 29,600 looks and 3 s of CPU for one 4-second task). A 2-second task: 2-3 looks; one every
     0.1 s (the wait's step) would be 20."""
-    distributed = pytest.importorskip("distributed")
     import mocapkit.parallel
 
     looks = []
     real = mocapkit.parallel._workers
     monkeypatch.setattr(mocapkit.parallel, "_workers", lambda client: looks.append(1) or real(client))
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        cpu = time.process_time()
-        assert map_ordered(time.sleep, [2.0], executor=cluster.scheduler_address, progress=False) == [None]
-        assert len(looks) <= 10 and time.process_time() - cpu < 2.0
+    cpu = time.process_time()
+    assert map_ordered(time.sleep, [2.0], executor=cluster.scheduler_address, progress=False) == [None]
+    assert len(looks) <= 10 and time.process_time() - cpu < 2.0
 
 
 def test_owner_alive_here_and_in_pool_workers():
@@ -377,17 +382,15 @@ def test_a_local_pool_is_handed_its_items_as_its_workers_free(tmp_path, monkeypa
     assert most[0] <= 2
 
 
-def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work():
-    distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        seen = []
-        assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False,
-                           on_result=lambda k, r: seen.append((k, r))) == [1, 4, 9]
-        assert sorted(seen) == [(0, 1), (1, 4), (2, 9)]
-        seen.clear()
-        out = map_ordered(slow_square, [1] * 30, executor=cluster.scheduler_address, progress=False,
-                          on_result=lambda k, r: seen.append(k) or True)
-        assert seen and len(seen) < 30 and [k for k, r in enumerate(out) if r is not None] == sorted(seen)
+def test_on_result_on_a_dask_scheduler_sees_each_result_and_stops_the_work(cluster):
+    seen = []
+    assert map_ordered(square, [1, 2, 3], executor=cluster.scheduler_address, progress=False,
+                       on_result=lambda k, r: seen.append((k, r))) == [1, 4, 9]
+    assert sorted(seen) == [(0, 1), (1, 4), (2, 9)]
+    seen.clear()
+    out = map_ordered(slow_square, [1] * 30, executor=cluster.scheduler_address, progress=False,
+                      on_result=lambda k, r: seen.append(k) or True)
+    assert seen and len(seen) < 30 and [k for k, r in enumerate(out) if r is not None] == sorted(seen)
 
 
 def pid_then_sleep(folder):
