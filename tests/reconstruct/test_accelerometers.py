@@ -49,10 +49,12 @@ def test_reconstruction_beats_single_frame_nn(db, test_motion, readings, result)
 
 
 def test_mahalanobis_baseline_runs_and_differs(db, test_motion, readings):
-    out = A.reconstruct_mahalanobis(readings, db, 25)
-    energy = A.reconstruct(readings, db, 25, synthesis="energy")
-    err = metrics.joint_position_rms(out, test_motion, root_relative="frame")
-    kernel = metrics.joint_position_rms(energy, test_motion, root_relative="frame")
+    # the first 30 of the take's 62 frames (1.2 s, a sneak step): the kernel priors' error is 13.6 cm against the
+    # Gaussians' 29.5 (13.3 against 36.7 on all 62), at half the cost of the two energy minimisations
+    out = A.reconstruct_mahalanobis(readings[:30], db, 25)
+    energy = A.reconstruct(readings[:30], db, 25, synthesis="energy")
+    err = metrics.joint_position_rms(out, test_motion[:30], root_relative="frame")
+    kernel = metrics.joint_position_rms(energy, test_motion[:30], root_relative="frame")
     assert np.isfinite(err) and kernel < err  # the kernel priors beat the Gaussian ones (thesis Fig. 3.21)
     assert not np.allclose(out.rotations, energy.rotations)
 
