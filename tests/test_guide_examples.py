@@ -129,7 +129,7 @@ def test_databases_guide_example_builds_opens_and_searches(tmp_path, monkeypatch
 
 def test_deep_models_guide_example_denoises_fills_and_streams(tmp_path, monkeypatch, capsys):
     """deep-models.md: the shipped EBF lowers Mall's 0.5 noise, the EBD fills every gap, and the live denoiser
-    gives the offline rows (None for its first 15 pushes, then every frame once)."""
+    gives the offline rows (None for its first ``lag`` pushes, then every frame once)."""
     monkeypatch.chdir(tmp_path)
     (example,) = _blocks("deep-models.md")
     scope = _run(example, "deep-models.md", {})
@@ -137,9 +137,10 @@ def test_deep_models_guide_example_denoises_fills_and_streams(tmp_path, monkeypa
     assert clean_deg < 0.5 * noisy_deg
     assert not scope["filled"].missing().any() and scope["gappy"].missing().any()
     rows, walk = scope["rows"], scope["walk"]
-    assert all(r is None for r in rows[:15]) and len(rows) == walk.num_frames + 15
+    held = min(scope["stream"].lag, walk.num_frames)
+    assert all(r is None for r in rows[:held]) and len(rows) == walk.num_frames + held
     offline = scope["deep"].denoise_rows(walk.skeleton, scope["noisy"].channel_values(), walk.fps)
-    assert np.allclose(np.array(rows[15:]), offline, atol=1e-4)
+    assert np.allclose(np.array(rows[held:]), offline, atol=1e-4)
 
 
 def test_every_code_block_of_the_docs_names_its_language_and_python_ones_parse():

@@ -214,15 +214,17 @@ def test_model_file_with_code_is_refused(tmp_path):
 # -- streaming -------------------------------------------------------------------------
 
 
-def test_streaming_equals_offline(walk, tiny_ebf):
+@pytest.mark.parametrize("calibrate", [True, False])
+def test_streaming_equals_offline(walk, tiny_ebf, calibrate):
     noisy, _ = corrupt.angular_noise(walk, 0.5, seed=3)
     rows = noisy.channel_values()
-    offline = deep.denoise_rows(walk.skeleton, rows, walk.fps, tiny_ebf)
-    stream = deep.Denoiser(walk.skeleton, walk.fps, tiny_ebf)
+    offline = deep.denoise_rows(walk.skeleton, rows, walk.fps, tiny_ebf, calibrate=calibrate)
+    stream = deep.Denoiser(walk.skeleton, walk.fps, tiny_ebf, calibrate=calibrate)
+    assert stream.lag == (480 + 240 - 1 if calibrate else 15)  # 120 fps: a 4 s block and the 2 s fixing its edges
     out = []
     for k, r in enumerate(rows):
         o = stream.push(r)
-        assert (o is None) == (k < 15)
+        assert (o is None) == (k < stream.lag)
         if o is not None:
             out.append(o)
     out += stream.flush()

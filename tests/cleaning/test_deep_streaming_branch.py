@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import mocapkit
+from mocapkit import rotations as R
 from mocapkit.cleaning import deep
 from mocapkit.cleaning.deep.channels import encode, euler_values
 from mocapkit.io.euler_branches import continuous_rotations
@@ -35,8 +36,8 @@ def _hips_cols(sk):
     return np.arange(start + 3, start + 6)  # Hips: 3 positions, then Z X Y rotations
 
 
-def _stream(sk, rows, fps, model):
-    s = deep.Denoiser(sk, fps, model)
+def _stream(sk, rows, fps, model, calibrate=True):
+    s = deep.Denoiser(sk, fps, model, calibrate=calibrate)
     out = [o for o in (s.push(r) for r in rows) if o is not None]
     return np.array(out + s.flush())
 
@@ -70,5 +71,14 @@ def test_streaming_equals_offline_across_the_lock_and_does_not_jump(turn, model)
     assert stream.shape == plain.shape
     assert np.abs(wrap(stream - offline)).max() < 1e-3  # float32 rounding only
     assert np.abs(wrap(stream - stream_one)).max() < 1e-9  # the branch a row comes on does not matter
-    step = np.abs(wrap(np.diff(stream[:, _hips_cols(sk)], axis=0)))
+    # the calibration keeps this clean turn's Hips as it came: its channels step as the input's on that branch do
+    # (Z and Y swing against each other at the lock), its rotation by no more than the input's
+    hips = sk.index("Hips")
+    q = mocapkit.Motion.from_channel_values(sk, stream, turn.fps, animated_offsets=True).rotations[:, hips]
+    q_in = turn.rotations[:, hips]
+    assert R.geodesic_angle(q[1:], q[:-1]).max() <= R.geodesic_angle(q_in[1:], q_in[:-1]).max() + 1e-6
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        widths = _stream(sk, plain, turn.fps, model, calibrate=False)  # the network's own widths
+    step = np.abs(wrap(np.diff(widths[:, _hips_cols(sk)], axis=0)))
     assert step.max() < 45.0

@@ -459,7 +459,7 @@ def denoise_channels(
     noise is correlated from frame to frame), but for the channels that
     wrapped in training (:func:`~mocapkit.cleaning.deep.sure.wrapped_channels`),
     calibrated at any rate. False: the network's widths, as
-    the streaming :class:`~mocapkit.cleaning.deep.streaming.Denoiser` uses them.
+    the streaming :class:`~mocapkit.cleaning.deep.streaming.Denoiser` uses them with ``calibrate=False``.
     """
     m = model_of_kind(model, "ebf")
     x = np.asarray(values, dtype=np.float64)

@@ -1,15 +1,18 @@
-"""Streaming denoising: the EBF one frame at a time, 15 frames behind the capture (Mall et al. 2017).
+"""Streaming denoising: the EBF one frame at a time, behind the capture (Mall et al. 2017).
 
 Mall et al. note that the bidirectional network "operates in a streaming
 setting": its backward LSTM layers look ahead a fixed number of frames (the
 shipped EBF 7 + 8, :class:`~mocapkit.cleaning.deep.networks.LookaheadLSTM`), and
-its filter spans 15 frames each side, so a frame can be cleaned once 15 more
-have arrived. :class:`Denoiser` does that on a live stream of file-channel rows
-(a BVH MOTION line or an AMC frame); :func:`denoise_rows` is its batch
-counterpart on a whole take, which gives the same numbers (the network's own
-filter widths, without the offline calibration of
-:func:`~mocapkit.cleaning.deep.inference.denoise_channels`, which needs the
-block ahead).
+its filter spans 15 frames each side, so the network's widths for a frame are
+known once 15 more have arrived. The offline widths are then scaled per
+channel and :data:`~mocapkit.cleaning.deep.sure.BLOCK_S` block by Stein's risk
+estimate (:func:`~mocapkit.cleaning.deep.sure.calibrated_log_sigma`), which
+needs the block whole and half a block after it (the take's last block takes
+in a shorter remainder). :class:`Denoiser` does that on a live stream of
+file-channel rows (a BVH MOTION line or an AMC frame), a block and a half
+behind (``calibrate=False``: the network's own widths, 15 frames behind);
+:func:`denoise_rows` is its batch counterpart on a whole take, which gives the
+same numbers.
 """
 
 from __future__ import annotations
@@ -28,20 +31,30 @@ from ...motion import Skeleton
 from .channels import UNWRAP_ALPHA, euler_columns, euler_values, root_angular_velocity
 from .inference import denoise_channels, model_of_kind, needs_resampling, warn_licence
 from .networks import EBF, HALF_WINDOW, LOG_SIGMA_RANGE, NOISE_WINDOW, gaussian_filter_frames, noise_level_step
+from .sure import BLOCK_S, READ_BEYOND, block_edges, calibrated_log_sigma, scoring_stride, wrapped_channels
 from .retarget import served_by
 
 __all__ = ["Denoiser", "denoise_rows"]
 
 
 class Denoiser:
-    """Streaming EBF: ``push(row)`` a frame of file channels, get a cleaned frame 15 frames later.
+    """Streaming EBF: ``push(row)`` a frame of file channels, get a cleaned frame :attr:`lag` frames later.
 
     A row is one line of a BVH MOTION block / AMC frame: all of the skeleton's
-    channels in file order (:meth:`Motion.channel_values`). The first push
-    emits nothing until 15 more frames have arrived; then each push returns the
-    cleaned row of the frame 15 earlier. :meth:`flush` returns the last 15.
-    The output equals :func:`denoise_rows` on the whole take frame for frame
-    (to float32 rounding). Each joint's Euler triple is read on one branch, the
+    channels in file order (:meth:`Motion.channel_values`). The first pushes
+    emit nothing until :attr:`lag` more frames have arrived; then each push
+    returns the cleaned row of the frame :attr:`lag` earlier. :meth:`flush`
+    returns the last :attr:`lag`. ``calibrate`` (default, a Gaussian-head
+    model): the widths calibrated per channel and block as offline
+    (:func:`~mocapkit.cleaning.deep.sure.calibrated_log_sigma`, the shared
+    function; a Bandai Namco channel that wrapped in training,
+    :func:`~mocapkit.cleaning.deep.sure.wrapped_channels`, among them): a block
+    is calibrated once it, :data:`~mocapkit.cleaning.deep.sure.READ_BEYOND`
+    frames around it and half a block after it have arrived, so :attr:`lag`
+    is a block and a half (179 frames at 30 fps, 719 at 120). False: the
+    network's own widths, 15 frames behind. The output equals
+    :func:`denoise_rows` with the same ``calibrate`` on the whole take frame for
+    frame (to float32 rounding). Each joint's Euler triple is read on one branch, the
     one nearest its previous frame's (:func:`~mocapkit.cleaning.deep.channels.euler_values`,
     as :func:`~mocapkit.cleaning.deep.denoise` reads a take), so a row on the
     other branch near gimbal lock (a Bandai Namco ``Hips`` in a heading turn) is
@@ -52,7 +65,7 @@ class Denoiser:
     ~20 PyTorch calls cost 2 ms).
     """
 
-    def __init__(self, skeleton: Skeleton, fps: float, model=None):
+    def __init__(self, skeleton: Skeleton, fps: float, model=None, calibrate: bool = True):
         m = model_of_kind(model, "ebf", skeleton)
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
@@ -92,6 +105,19 @@ class Denoiser:
         self._prev_q = None
         self._ref = None
         self._started = False
+        self._calibrate = bool(calibrate) and self.net.head_kind == "gaussian"  # as denoise_channels
+        self._block = int(round(BLOCK_S * m.fps))
+        self._ready = max(-(-self._block // 2), READ_BEYOND + HALF_WINDOW)  # frames after a block that fix it
+        self.lag = self._block + self._ready - 1 if self._calibrate else HALF_WINDOW
+        """Frames between a push and the frame its returned row is of."""
+        self._wrapped = wrapped_channels(self._k["std"])
+        self._pushed = 0  # frames pushed
+        self._lo = 0  # the first frame of the block not yet calibrated
+        self._xs: list = []  # padded positions from self._xs0 on: the network's inputs (float32, as offline)
+        self._xs0 = 0
+        self._held: list = []  # frames from self._lo - len(context) on: (log sigma, bias, row)
+        self._held0 = 0
+        self._queue: deque = deque()  # cleaned rows waiting for their turn
 
     def _inputs(self, row: np.ndarray):
         branch = row.copy()  # each 3-axis triple nearest the frame before's, as channels.euler_values, causally
@@ -129,6 +155,8 @@ class Denoiser:
             parts.append(noise_level_step(np.array(self._d2), k["std"]))
         self._x.append(x)
         self._rows.append(row)
+        if self._calibrate:
+            self._xs.append(x.astype(np.float32))
         e = _mlp_forward(k["encoder"], np.concatenate(parts + [w / k["ctx_scale"]]), True)
         self._codes.append(e)
         self._gi1.append(_affine(k["b1"][0], e, k["b1"][2]))
@@ -154,6 +182,10 @@ class Denoiser:
         win = np.stack(self._x)  # positions t-15 .. t+15, (31, C)
         if self.net.head_kind == "gaussian":
             log_sigma = np.clip(out[:C], *LOG_SIGMA_RANGE)
+            if self._calibrate:  # filtered once its block is calibrated (_calibrated)
+                bias = out[-C:] * k["std"] if self.net.with_bias else None
+                self._held.append((log_sigma.astype(np.float32), bias, np.array(self._rows[0], dtype=np.float64)))
+                return None
             res_c = gaussian_filter_frames(win, log_sigma[None])[0]
         else:
             logits = out[: C * (2 * HALF_WINDOW + 1)].reshape(C, 2 * HALF_WINDOW + 1)
@@ -178,7 +210,13 @@ class Denoiser:
             for _ in range(HALF_WINDOW):  # edge padding, as offline
                 self._step(x, np.zeros(3), row)
         self._last = (x, row)
-        return self._step(x, w, row)
+        out = self._step(x, w, row)
+        if not self._calibrate:
+            return out
+        self._pushed += 1
+        if self._pushed >= self._lo + self._block + self._ready:  # the block's edges are the whole take's
+            self._queue.extend(self._calibrated(self._lo, self._lo + self._block))
+        return self._queue.popleft() if self._queue else None
 
     def flush(self) -> list[np.ndarray]:
         """Emit the frames still waiting for look-ahead (end of take: the last frame is held)."""
@@ -190,7 +228,38 @@ class Denoiser:
             r = self._step(x, np.zeros(3), row)
             if r is not None:
                 out.append(r)
+        if self._calibrate:
+            edges = block_edges(self._pushed, self._block)
+            for lo, hi in zip(edges[:-1], edges[1:]):
+                if lo >= self._lo:
+                    self._queue.extend(self._calibrated(int(lo), int(hi)))
+            out = list(self._queue)
+            self._queue.clear()
         return out
+
+    def _calibrated(self, lo: int, hi: int) -> list[np.ndarray]:
+        """The cleaned rows of frames [lo, hi), one block, by the offline calibration
+        (:func:`~mocapkit.cleaning.deep.sure.calibrated_log_sigma` on the block with
+        :data:`~mocapkit.cleaning.deep.sure.READ_BEYOND` frames either side, where the take has them)."""
+        a, e = max(0, lo - READ_BEYOND), min(self._pushed, hi + READ_BEYOND)
+        xp = np.stack(self._xs[a - self._xs0 : e + 2 * HALF_WINDOW - self._xs0])  # (e - a + 30, C) float32
+        held = self._held[a - self._held0 : e - self._held0]
+        log_sigma = np.stack([h[0] for h in held])
+        edges = np.unique(np.array([0, lo - a, hi - a, e - a]))
+        cal = calibrated_log_sigma(xp, log_sigma, np.ones(log_sigma.shape, dtype=bool), edges, HALF_WINDOW,
+                                   scoring_stride(self.model.fps), self.model.fps, self._wrapped)
+        res_c = gaussian_filter_frames(xp[lo - a : hi - a + 2 * HALF_WINDOW], cal[lo - a : hi - a])
+        rows = []
+        for k, (_, bias, row) in enumerate(held[lo - a : hi - a]):
+            res = row.copy()
+            c = res_c[k] if bias is None else res_c[k] - bias
+            res[self._cols] = (c + 180.0) % 360.0 - 180.0
+            rows.append(res)
+        self._lo = hi
+        keep = max(0, hi - READ_BEYOND)  # the next block's context on
+        del self._xs[: keep - self._xs0], self._held[: keep - self._held0]
+        self._xs0 = self._held0 = keep
+        return rows
 
 
 def _numpy_weights(net: EBF) -> dict:
@@ -293,9 +362,10 @@ def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray
     return q
 
 
-def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -> np.ndarray:
-    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the network's own
-    filter widths (no calibration, which needs the block ahead), so the same numbers as streaming.
+def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None, calibrate: bool = True) -> np.ndarray:
+    """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the same numbers as
+    streaming with the same ``calibrate`` (True: the widths calibrated as :func:`~mocapkit.cleaning.deep.denoise`
+    calibrates them; False: the network's own).
 
     ``skeleton``: a :class:`~mocapkit.motion.Skeleton` (``motion.skeleton``); ``rows``: numbers (F, C_file) in the
     skeleton's file-channel layout (``motion.channel_values()``), degrees; ``fps``: their frame rate. Anything
@@ -317,7 +387,7 @@ def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None) -
     cols = euler_columns(skeleton)
     x = euler_values(rows, skeleton)  # each joint's triple on one branch, as deep.denoise and streaming read it
     q = _root_quaternion(skeleton, rows, _root_rotation_columns(skeleton))
-    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=False)  # as streaming runs
+    out = denoise_channels(x, root_angular_velocity(q, fps), m, fps=fps, calibrate=calibrate)  # as streaming runs
     res = rows.copy()
     res[:, cols] = (out + 180.0) % 360.0 - 180.0
     return res

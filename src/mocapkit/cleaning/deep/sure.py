@@ -37,8 +37,10 @@ Limits: the estimate assumes noise independent from frame to frame, as
 capture noise at the networks' own rate is; a take resampled to a model's
 rate correlates it, so only takes at the model's rate are calibrated
 (:func:`mocapkit.cleaning.deep.denoise_channels`). The streaming
-:class:`mocapkit.cleaning.deep.Denoiser` cannot see a block ahead and keeps
-the network's widths.
+:class:`mocapkit.cleaning.deep.Denoiser` calibrates each block by
+:func:`calibrated_log_sigma` once the frames it needs have arrived (the block,
+:data:`READ_BEYOND` frames either side and enough of the take after it to fix
+its edges): the offline widths, a block and a half behind the capture.
 """
 
 from __future__ import annotations
@@ -49,9 +51,9 @@ import numpy as np
 from numba import njit
 
 from .networks import observed_second_differences
-from .noise_predictor import predictor_noise_std
+from .noise_predictor import ORDER, predictor_noise_std
 
-__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "WRAPPED_STD", "wrapped_channels", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
+__all__ = ["SCALES", "BLOCK_S", "PREDICTOR_MARGIN", "PREDICTOR_MAX_FPS", "MIN_GAIN", "KEEP_GAIN", "KEEP_NOISE", "LOG_SIGMA_KEEP", "READ_BEYOND", "WRAPPED_STD", "wrapped_channels", "block_spread", "SCORE_HZ", "scoring_stride", "block_edges", "noise_std", "risk_terms", "calibrated_log_sigma"]
 
 SCALES = 2.0 ** (np.arange(-6, 3) / 2.0)
 """Factors tried on the network's widths: 1/8 to 2 in steps of sqrt(2) (1: the network's own; the steps of
@@ -102,6 +104,11 @@ of the second differences falls as the fourth power of the rate (a 4.5 Hz wave l
 than at 30), so at 120 fps they read the noise; and the interpolator's median passes over sparse spikes, which
 ``benchmarks/clean_takes.py`` corrupts its 120 fps HDM05 and CMU takes with and the EBF is there to take off
 (read at 120 fps, eq. 2 per frame rose on 8 of its 9 takes, grabHighR 0.0042 -> 0.0365, 1.91 -> 6.76 cm)."""
+
+READ_BEYOND = max(2, ORDER)
+"""Frames beyond a block's edges that its noise estimates read (a second difference reaches two frames back, the
+interpolator of :mod:`.noise_predictor` :data:`~mocapkit.cleaning.deep.noise_predictor.ORDER` each side): a block
+scored with these frames around it gets the factors it gets in a run over the whole take."""
 
 WRAPPED_STD = 90.0
 """Degrees: an Euler channel whose training standard deviation (the network's normalisation) exceeds this
