@@ -1,8 +1,9 @@
 """The channels a BVH (dofs an AMC) still measures in a cell it leaves partly missing, put back after the fill.
 
 A joint's sample is its whole rotation (``Motion.rotations`` (F, J, 4)), so one NaN channel of a BVH cell (a
-``Zrotation`` written as ``nan`` for ten frames) makes the joint missing in those frames, and the fill (EBD or
-spline) makes up its whole rotation there. The file's other rotation channels of those cells are measurements,
+``Zrotation`` written as ``nan`` for ten frames) makes the joint missing in those frames. The networks' fill
+reads the measured channels there (:func:`measured_rotations`) and estimates the missing ones conditioned on
+them; the spline's makes up the whole rotation. The file's other rotation channels of those cells are measurements,
 which a cleaning tool must not lose (nor the rotation of a joint missing by a position channel alone, nor
 the measured axes of a position): :func:`keep_measured` keeps the file's measured angles and gives the missing
 channel the angle whose rotation is nearest the filled one (on the whole turn nearest its own curve), so only the
@@ -40,7 +41,7 @@ from ..motion import Motion
 from ..words import frame_span, listed, plural
 
 __all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note", "measured_axes",
-           "filled_channels", "filled_channels_note", "MAX_NAMED_JOINTS",
+           "filled_channels", "filled_channels_note", "measured_rotations", "MAX_NAMED_JOINTS",
            "REPAIR_TOLERANCE_DEG"]
 
 #: Degrees: a repaired cell the file gives partly ``nan`` keeps its measured channels where its missing ones alone put
@@ -214,6 +215,31 @@ def filled_channels_note(before: Motion, after: Motion) -> str:
     said = "; ".join(parts[:MAX_NAMED_JOINTS]) + (f"; and {plural(more, 'more joint')}" if more > 0 else "")
     return (f"{plural(cells, 'partly measured cell')} filled in their nan channels alone, the measured channels "
             f"kept as the file writes them: {said}")
+
+
+def measured_rotations(motion: Motion) -> np.ndarray | None:
+    """(F, C) over ``motion``'s file channels (:meth:`Motion.channel_values`' columns): the rotation numbers (degrees)
+    its BVH file (its ``source_file``, or an .npz keeping such a file's numbers) measures in the cells ``motion``
+    lacks because some other channel of the joint is ``nan`` there (a ``Zrotation`` written ``nan`` beside measured
+    ``Xrotation`` and ``Yrotation``, or a whole rotation beside a ``nan`` position), NaN in every other entry;
+    None where there is no such number. What a fill conditions its estimate of those cells on
+    (:func:`mocapkit.cleaning.deep.fill_gaps`), so that its rotation agrees with the measured angles
+    (:func:`keep_measured` then writes them as the file does). An AMC take's dofs are not read here (None)."""
+    values, names, bvh = _file_numbers(motion, motion.source_file)
+    F = motion.num_frames
+    if not bvh or values is None or values.shape[0] != F or len(names) != motion.num_joints:
+        return None
+    gone = motion.missing()
+    out = np.full(values.shape, np.nan)
+    start = 0
+    for j, chans in enumerate(names):
+        cols = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
+        start += len(chans)
+        if not cols:
+            continue
+        rows = gone[:, j] & np.isfinite(values[:, cols]).any(axis=1)
+        out[np.ix_(rows, cols)] = values[np.ix_(rows, cols)]
+    return out if np.isfinite(out).any() else None
 
 
 def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]:

@@ -30,10 +30,10 @@ from numba import njit
 
 from ... import rotations as R
 from ...errors import SkeletonError
-from ...io.euler_branches import continuous_rotations
+from ...io.euler_branches import continuous_rotations, three_axis_groups
 from ...motion import Motion
 
-__all__ = ["ChannelLayout", "layout_for", "euler_columns", "euler_values", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill"]
+__all__ = ["ChannelLayout", "layout_for", "euler_columns", "euler_values", "root_angular_velocity", "encode", "decode", "unwrap_degrees", "wrap_degrees", "channel_joints", "lerp_fill", "with_measured"]
 
 REPRESENTATIONS = ("euler", "rot6d")
 
@@ -209,6 +209,43 @@ def euler_values(rows: np.ndarray, skeleton) -> np.ndarray:
     vals = np.array(rows, dtype=np.float64)
     continuous_rotations(vals, [skeleton.joint_channels(j) for j in range(skeleton.num_joints)])
     return unwrap_degrees(vals[:, euler_columns(skeleton)])
+
+
+def with_measured(values: np.ndarray, measured: np.ndarray | None, skeleton) -> np.ndarray:
+    """(F, C) Euler model channels ``values`` (:func:`euler_values`; NaN where a joint is missing) with the file's
+    ``measured`` rotation numbers (F, C_file; :func:`mocapkit.cleaning.measured.measured_rotations`, NaN where
+    none) put in: the channels a partly missing joint still measures, which a fill then conditions on instead of
+    making the joint's whole rotation up. Each joint's measured angles of a cell are placed on the Euler branch,
+    ``(z + 180, 180 - x, y + 180)`` or the triple as written (``-x`` for a repeated axis), and the whole turns
+    nearest the channels' curve bridged over the gap (:func:`lerp_fill`), judged on the measured angles alone
+    (the branch moves every angle of the triple, the missing one too). ``measured`` None: ``values`` as given.
+    """
+    if measured is None:
+        return values
+    cols = euler_columns(skeleton)
+    meas = np.asarray(measured, dtype=np.float64)[:, cols]
+    if values.shape != meas.shape or not np.isfinite(meas).any():
+        return values
+    near = lerp_fill(values)
+    out = np.where(np.isfinite(meas), meas + 360.0 * np.round((near - meas) / 360.0), values)  # whole turns
+    at = {int(c): k for k, c in enumerate(cols)}
+    for order, idx in three_axis_groups(skeleton):
+        for triple in (t for t in idx if int(t[0]) in at):  # the root's rotation is no model channel
+            k = [at[int(c)] for c in triple]
+            own, ref = meas[:, k], near[:, k]
+            rows = np.isfinite(own).any(axis=1)
+            if not rows.any():
+                continue
+            other = own[rows] + np.array([180.0, 0.0, 180.0])
+            other[:, 1] = (-own[rows, 1]) if order[0] == order[2] else 180.0 - own[rows, 1]
+            dist = []
+            for cand in (own[rows], other):
+                cand = cand + 360.0 * np.round((ref[rows] - cand) / 360.0)
+                dist.append((np.nansum(np.abs(cand - ref[rows]), axis=1), cand))
+            pick = np.where((dist[1][0] < dist[0][0])[:, None], dist[1][1], dist[0][1])
+            sub = out[np.ix_(rows, k)]
+            out[np.ix_(rows, k)] = np.where(np.isfinite(own[rows]), pick, sub)
+    return out
 
 
 def _gram_schmidt(v: np.ndarray) -> np.ndarray:

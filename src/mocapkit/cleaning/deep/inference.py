@@ -24,7 +24,8 @@ from ...errors import LicenceWarning, MocapFormatError, SkeletonError
 from ...words import frame_span
 from ...io import atomic_write
 from ...motion import Motion
-from .channels import ChannelLayout, channel_joints, lerp_fill
+from ..measured import measured_rotations
+from .channels import ChannelLayout, channel_joints, lerp_fill, with_measured
 from .doubt import doubtful_runs
 from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
 from .prior import GapPrior, conditional_fill
@@ -766,6 +767,8 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
         return motion, []
     src = motion if sv.direct and not sv.joints else _hold_unmapped(motion, sv, missing)
     values, ctx = encode_served(src, sv)
+    if src is motion and m.layout.representation == "euler":  # a partly missing joint's measured angles: conditioned on
+        values = with_measured(values, measured_rotations(motion), motion.skeleton)
     if smooth:  # the shipped EBF of the EBD's pair when none is given
         denoiser = _smoothing_ebf(m, denoiser, motion)
     out = fill_channels(values, ctx, m, denoiser, fps=motion.fps, smooth=smooth, method=method)
