@@ -64,7 +64,7 @@ def test_streaming_equals_offline_across_the_lock_and_does_not_jump(turn, model)
     continuous_rotations(one, [sk.joint_channels(j) for j in range(sk.num_joints)])  # the same rotations, one branch
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        offline = deep.denoise_rows(sk, plain, turn.fps, model)
+        offline = deep.denoise_rows(sk, plain, turn.fps, model, calibrate=True)
         stream = _stream(sk, plain, turn.fps, model)
         stream_one = _stream(sk, one, turn.fps, model)
     wrap = lambda d: (d + 180.0) % 360.0 - 180.0  # noqa: E731

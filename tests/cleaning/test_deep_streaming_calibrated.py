@@ -45,8 +45,8 @@ def test_streaming_equals_offline_calibrated(noisy, model):
     rows = noisy.channel_values()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        s, pushed, stream = _stream(noisy, model)
-        offline = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model)
+        s, pushed, stream = _stream(noisy, model, calibrate=True)
+        offline = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=True)
         take = deep.denoise(noisy, model, guard=False)
     assert s.lag == 179  # a 120-frame block and the 60 frames that fix its edges
     assert [o is None for o in pushed] == [k < s.lag for k in range(len(rows))]
@@ -62,7 +62,9 @@ def test_uncalibrated_streaming_keeps_the_network_widths_15_frames_behind(noisy,
         warnings.simplefilter("ignore")
         s, pushed, stream = _stream(noisy, model, calibrate=False)
         offline = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=False)
-        calibrated = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model)
+        calibrated = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=True)
+        default = deep.Denoiser(noisy.skeleton, noisy.fps, model)
+    assert default.lag == 15  # a live stream's default: the look-ahead, not a block and a half
     assert s.lag == 15 and pushed[14] is None and pushed[15] is not None
     assert np.abs((stream - offline + 180.0) % 360.0 - 180.0).max() < 1e-3
     assert np.abs((stream - calibrated + 180.0) % 360.0 - 180.0).max() > 1.0  # the calibration changes the take

@@ -8,11 +8,13 @@ known once 15 more have arrived. The offline widths are then scaled per
 channel and :data:`~mocapkit.cleaning.deep.sure.BLOCK_S` block by Stein's risk
 estimate (:func:`~mocapkit.cleaning.deep.sure.calibrated_log_sigma`), which
 needs the block whole and half a block after it (the take's last block takes
-in a shorter remainder). :class:`Denoiser` does that on a live stream of
-file-channel rows (a BVH MOTION line or an AMC frame), a block and a half
-behind (``calibrate=False``: the network's own widths, 15 frames behind);
+in a shorter remainder). :class:`Denoiser` runs on a live stream of
+file-channel rows (a BVH MOTION line or an AMC frame) 15 frames behind with
+the network's own widths, the look-ahead a live capture can afford; with
+``calibrate=True`` it calibrates as the offline command does and equals it
+frame for frame, a block and a half behind (179 frames at 30 fps);
 :func:`denoise_rows` is its batch counterpart on a whole take, which gives the
-same numbers.
+same numbers with the same ``calibrate``.
 """
 
 from __future__ import annotations
@@ -44,15 +46,17 @@ class Denoiser:
     channels in file order (:meth:`Motion.channel_values`). The first pushes
     emit nothing until :attr:`lag` more frames have arrived; then each push
     returns the cleaned row of the frame :attr:`lag` earlier. :meth:`flush`
-    returns the last :attr:`lag`. ``calibrate`` (default, a Gaussian-head
-    model): the widths calibrated per channel and block as offline
+    returns the last :attr:`lag`. ``calibrate=False`` (default): the
+    network's own widths, 15 frames behind, the delay a live capture can
+    take. ``calibrate=True`` (a Gaussian-head model): the widths calibrated per
+    channel and block as offline
     (:func:`~mocapkit.cleaning.deep.sure.calibrated_log_sigma`, the shared
     function; a Bandai Namco channel that wrapped in training,
-    :func:`~mocapkit.cleaning.deep.sure.wrapped_channels`, among them): a block
-    is calibrated once it, :data:`~mocapkit.cleaning.deep.sure.READ_BEYOND`
-    frames around it and half a block after it have arrived, so :attr:`lag`
-    is a block and a half (179 frames at 30 fps, 719 at 120). False: the
-    network's own widths, 15 frames behind. The output equals
+    :func:`~mocapkit.cleaning.deep.sure.wrapped_channels`, among them), so the
+    stream equals ``mocapkit denoise``; a block is calibrated once it,
+    :data:`~mocapkit.cleaning.deep.sure.READ_BEYOND` frames around it and half
+    a block after it have arrived, so :attr:`lag` is a block and a half (179
+    frames at 30 fps, 719 at 120). The output equals
     :func:`denoise_rows` with the same ``calibrate`` on the whole take frame for
     frame (to float32 rounding). Each joint's Euler triple is read on one branch, the
     one nearest its previous frame's (:func:`~mocapkit.cleaning.deep.channels.euler_values`,
@@ -65,7 +69,7 @@ class Denoiser:
     ~20 PyTorch calls cost 2 ms).
     """
 
-    def __init__(self, skeleton: Skeleton, fps: float, model=None, calibrate: bool = True):
+    def __init__(self, skeleton: Skeleton, fps: float, model=None, calibrate: bool = False):
         m = model_of_kind(model, "ebf", skeleton)
         if m.layout.representation != "euler":
             raise ValueError("streaming needs an Euler-channel model")
@@ -362,7 +366,7 @@ def _root_quaternion(skeleton: Skeleton, rows: np.ndarray, root_cols: np.ndarray
     return q
 
 
-def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None, calibrate: bool = True) -> np.ndarray:
+def denoise_rows(skeleton: Skeleton, rows: np.ndarray, fps: float, model=None, calibrate: bool = False) -> np.ndarray:
     """Offline EBF on file-channel rows (F, C_file), the batch counterpart of :class:`Denoiser`: the same numbers as
     streaming with the same ``calibrate`` (True: the widths calibrated as :func:`~mocapkit.cleaning.deep.denoise`
     calibrates them; False: the network's own).
