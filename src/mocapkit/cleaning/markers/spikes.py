@@ -22,8 +22,11 @@ error:
   left its cubic but stayed at its usual distance from a partner that left
   its own cubic with it, the segment moved faster than the cubic follows
   (a strike, a heel strike, a wrist turning) and the samples are real. A
-  spike moves one marker; its partners stay on their cubic. This check can
-  only keep a candidate; where no partner is seen it says nothing.
+  spike moves one marker; its partners stay on their cubic. The partners
+  judge each sample (:func:`partner_vouched`): a run is cut to the samples
+  none of them vouches for, not condemned whole for one of its samples
+  (a punch's first frame off the wrist bar). This check can only keep
+  samples; where no partner is seen it says nothing.
 * **in space**: a marker rides on a body segment with other markers. The
   candidate run is predicted from the moving frame of rigidly attached
   markers (:func:`rigid_deviation`: its coordinates in the frame of each
@@ -63,7 +66,8 @@ import numpy as np
 from .edges import EDGE_MIN_FPS, edge_candidates, edge_glitch_mask
 from .rigid import DistanceStats, distance_stats, donor_order, from_local, local_frames_stacked, to_local
 
-__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion", "longest_spike"]
+__all__ = ["spike_mask", "prediction_matrix", "rigid_deviation", "partner_motion", "partner_vouched",
+           "longest_spike"]
 
 
 def longest_spike(fps: float | None, max_len: int = 5, max_seconds: float = 5.0 / 60.0) -> int:
@@ -386,10 +390,10 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
     return best
 
 
-def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
-                   partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
-                   step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> bool | None:
-    """Whether the run of ``marker`` (frames ``start <= f < end``) is real motion by its rigid partners' account.
+def partner_vouched(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
+                    partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
+                    step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> np.ndarray | None:
+    """(end - start,) bool: the samples of ``marker``'s run (frames ``start <= f < end``) its rigid partners vouch for.
 
     ``positions`` (F, M, 3), NaN where unseen; ``good`` (F,) the marker's
     frames taken as right (seen, its suspected runs excluded); ``partners``
@@ -397,25 +401,31 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     ``median`` and ``tol`` (M,) their usual distance to it and how far from
     it a sample may lie (capture unit); ``suspect`` (F, M) the samples found
     far from their cubic (spike candidates); ``step`` how far (capture unit)
-    a sample's distance to a partner may lie from that distance at the run's
-    two ends (the last good frame before it, the first after), interpolated
-    linearly across it. The marker's departure from the cubic through its
-    ``context`` nearest good samples on either side (within ``reach``
-    frames), and each partner's departure from the cubic through the same
-    frames, are compared sample by sample. A partner *keeps* a sample when
-    their distance is within ``tol`` of the usual one and ``step`` of the
-    one at the run's ends, and the partner leaves its own cubic by at least
-    ``share`` of the marker's departure: the segment moved fast, both markers
-    with it, and the distance held. A partner not itself suspected there *breaks* a sample
-    whose distance to it is off by more than ``tol``. A spike moves one
-    marker: its partners stay on their cubic, and the distance to them
-    changes unless the jump happens to lie on the sphere about them.
+    a sample's distance to a partner may move from one frame to the next.
+    The marker's departure from the cubic through its ``context`` nearest
+    good samples on either side (within ``reach`` frames), and each
+    partner's departure from the cubic through the same frames, are compared
+    sample by sample.
 
-    Returns True when every sample of the run is kept by some partner and
-    broken by none (real motion), False when some sample is not, and None
-    when no partner is seen over the run and its context, or the marker's
-    context is missing (nothing to judge by: the caller falls back to its
-    other rules).
+    The distance to a partner *holds* at a frame when it lies within ``tol``
+    of the usual one. A partner *keeps* a sample when the distance holds
+    there, lies within ``step`` of the distance at each adjacent frame where
+    it holds too (it does not jump; beside the run, only a ``good`` frame is
+    such a reference), and the partner leaves its own cubic by
+    at least ``share`` of the marker's departure: the segment moved fast,
+    both markers with it, and the distance held. A partner not itself
+    suspected there *breaks* a sample whose distance to it does not hold. A
+    spike moves one marker: its partners stay on their cubic, and the
+    distance to them changes unless the jump happens to lie on the sphere
+    about them. A sample is vouched for when some partner keeps it and none
+    breaks it. Each sample is judged on its own: a run that holds a broken
+    sample (the marker off for a frame or two as a fast strike starts) is
+    motion on the samples whose distance held, and a sample beside the run
+    that is itself off is not their reference.
+
+    Returns None when no partner is seen over the run and its context, or
+    the marker's context is missing (nothing to judge by: the caller falls
+    back to its other rules).
     """
     f = positions.shape[0]
     before = np.flatnonzero(good[max(start - reach, 0):start]) + max(start - reach, 0)
@@ -429,22 +439,44 @@ def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: 
     kept = np.zeros(end - start, dtype=bool)
     broken = np.zeros(end - start, dtype=bool)
     judged = False
-    t0, t1 = before[-1], after[0]
-    u = (np.arange(start, end) - t0) / (t1 - t0)
+    around = np.arange(start - 1, end + 1)  # the run and the frame on each side of it
+    inside = (around >= 0) & (around < f)
+    reference = np.ones(around.size, dtype=bool)  # the run's samples, and a frame beside it the marker's good
+    reference[[0, -1]] = [start > 0 and good[start - 1], end < f and good[min(end, f - 1)]]
     for j in partners:
         if np.any(np.isnan(positions[frames, j])):
             continue  # the partner is missing here: it cannot vouch for the marker
         judged = True
         moved = np.linalg.norm(positions[start:end, j] - w @ positions[ctx, j], axis=-1)
-        dist = np.linalg.norm(positions[frames, marker] - positions[frames, j], axis=-1)
-        near = (1.0 - u) * dist[context - 1] + u * dist[context]  # the distance at the run's two ends, interpolated
-        dist = dist[2 * context:]
-        off = np.abs(dist - median[j])
-        kept |= (off <= tol[j]) & (np.abs(dist - near) <= step) & (moved >= share * own)
-        broken |= (off > tol[j]) & ~suspect[start:end, j]
+        dist = np.full(around.size, np.nan)
+        dist[inside] = np.linalg.norm(positions[around[inside], marker] - positions[around[inside], j], axis=-1)
+        with np.errstate(invalid="ignore"):
+            holds = np.abs(dist - median[j]) <= tol[j]  # False where unseen
+            jump = np.abs(np.diff(dist)) > step  # (run + 1,) between consecutive frames
+        # a jump counts against a sample only towards an adjacent frame whose distance holds as well (beside
+        # the run, a good frame of the marker: a spike candidate there may be off itself)
+        back = jump[:-1] & (holds & reference)[:-2]
+        ahead = jump[1:] & (holds & reference)[2:]
+        own_holds = holds[1:-1]
+        kept |= own_holds & ~back & ~ahead & (moved >= share * own)
+        broken |= ~own_holds & ~suspect[start:end, j]
     if not judged:
         return None
-    return bool(np.all(kept & ~broken))
+    return kept & ~broken
+
+
+def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
+                   partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
+                   step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> bool | None:
+    """Whether the run of ``marker`` (frames ``start <= f < end``) is real motion by its rigid partners' account.
+
+    True when every sample of the run is vouched for (:func:`partner_vouched`,
+    same arguments), False when some sample is not, None when no partner can
+    judge the run.
+    """
+    vouched = partner_vouched(positions, good, marker, start, end, partners, median, tol, suspect, step,
+                              context=context, reach=reach, share=share)
+    return None if vouched is None else bool(np.all(vouched))
 
 
 def _rigid_noise(x: np.ndarray, marker: int, order: np.ndarray, candidates: int = 4, frames: int = 600,
@@ -534,8 +566,8 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
     keep_mm, keep_spreads : float
         A partner keeps a sample when their distance lies within
         max(``keep_mm``, ``keep_spreads`` x spread) of its usual (median) value
-        and within ``keep_mm`` of the distance at the run's two ends,
-        interpolated across it (millimetres).
+        and within ``keep_mm`` of the distance at each adjacent frame where it
+        lies that near too (millimetres; :func:`partner_vouched`).
     stats : DistanceStats, optional
         The take's usual inter-marker distances (capture unit); computed from
         ``positions`` when not given. Pass the whole take's when judging a
@@ -611,23 +643,30 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
         spread = np.where(stats.count >= 10, stats.spread, np.nan)
         # A run is judged from the marker's good samples around it; a neighbouring run of the same marker
         # (fast motion makes several) takes them away until it is itself found to be motion. So the runs are
-        # judged again, with the released runs' samples good, until no more is released (at most one pass per
-        # run, each releasing one at least): the outcome does not depend on the order the runs were found in.
+        # judged again, with the released samples good, until no more is released (each pass releases one
+        # sample at least): the outcome does not depend on the order the runs were found in.
         while runs:
             left = []
             for mk, a, b in runs:
                 # its rigid partners first (real fast motion keeps their distances), then the neighbour triples
                 partners = np.flatnonzero(spread[mk] * unit_mm <= partner_mm)
                 tol = np.maximum(keep_mm / unit_mm, keep_spreads * np.nan_to_num(spread[mk], nan=np.inf))
-                if (partner_motion(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect,
-                                   keep_mm / unit_mm, context=context, reach=pad)
-                        or rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad, nearby=clear[:, mk],
-                                           suspect=mask) <= thr[mk]):
-                    mask[a:b, mk] = False
-                    good[a:b, mk] = True
-                else:
+                vouched = partner_vouched(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect,
+                                          keep_mm / unit_mm, context=context, reach=pad)
+                vouched = np.zeros(b - a, dtype=bool) if vouched is None else vouched
+                if not vouched.all() and rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad,
+                                                         nearby=clear[:, mk], suspect=mask) <= thr[mk]:
+                    vouched[:] = True
+                if not vouched.any():
                     left.append((mk, a, b))
-            if len(left) == len(runs):
+                    continue
+                # the samples a partner vouches for are motion: the run is cut to the others, judged again
+                mask[a:b, mk] &= ~vouched
+                good[a:b, mk] |= vouched
+                edge = np.diff(np.concatenate([[1], vouched.astype(np.int8), [1]]))
+                left.extend((mk, a + int(s0), a + int(s1)) for s0, s1 in zip(np.flatnonzero(edge == -1),
+                                                                             np.flatnonzero(edge == 1)))
+            if sum(b - a for _, a, b in left) == sum(b - a for _, a, b in runs):
                 break
             runs = left
     one_sided = rigid and (fps is None or fps >= EDGE_MIN_FPS)  # under it, real speed changes read as glitches
