@@ -98,15 +98,22 @@ from mocapkit.cli import main
 sys.exit(main())
 """
 
-# A fork server: imports the console script's module (and PRELOAD) once, then for each request (a JSON line on stdin: argv,
-# cwd, limits, the files for stdout and stderr) forks a child that becomes the command exactly as LAUNCHER does
-# (new session, limits, standard streams on the files, sys.argv, main()); it answers on its original stdout with
+# A fork server: imports the console script's module (and PRELOAD) once, readies numba's CPU target (the registries numba
+# imports the first time a process loads a kernel, cached or not: ~0.4 s of CPU in every command that reads a take) and
+# freezes the garbage collector's objects (gc.freeze: a child's collections then leave the server's objects, and the
+# memory pages they lie on, untouched, instead of copying those pages: ~0.25 s of CPU in every forked command); then
+# for each request (a JSON line on stdin: argv, cwd, limits, the files for stdout and stderr) forks a child that
+# becomes the command exactly as LAUNCHER does (new session, limits, standard streams on the files, sys.argv, main()); it answers on its original stdout with
 # the child's pid, then with its wait status and resource usage once it has exited.
 FORK_SERVER = r"""
 import importlib, json, os, resource, sys
 from mocapkit.cli import main
 for name in sys.argv[1:]:
     importlib.import_module(name)
+from numba.core.registry import cpu_target
+cpu_target.target_context.refresh()
+import gc
+gc.freeze()
 ctl, buf = os.dup(1), b""
 while True:
     while b"\n" not in buf:
@@ -143,7 +150,8 @@ sys.exit(main())
 
 # What ``mocapkit info`` on a BVH imports (numpy, scipy, numba, rich, the readers and rigs: ~0.8 s of CPU), which
 # every command reading a take imports too, and the database and cleaning modules. Not torch (``denoise``'s
-# alone, and large in RLIMIT_AS): a forked command is charged no address space it would not have mapped itself.
+# alone, and large in RLIMIT_AS): a forked command is charged no address space it would not have mapped itself, but for
+# numba's CPU target (~130 MB of address space, which any command reading a take maps).
 PRELOAD = ("mocapkit.cli.streams", "mocapkit.io.takes", "mocapkit.io.bvh", "mocapkit.io.asfamc", "mocapkit.io.c3d",
            "mocapkit.io.npz", "mocapkit.rigs", "mocapkit.features", "mocapkit.digest", "mocapkit.database_folder",
            "mocapkit.reconstruct.output", "mocapkit.database", "mocapkit.cleaning.pipeline")
