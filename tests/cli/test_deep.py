@@ -174,7 +174,7 @@ def test_train_says_when_a_holdout_count_leaves_one_clip(tmp_path):
     # --holdout 10 of 2 clips held out 1 and trained on 1 without a word
     out = tmp_path / "ebf"
     code, stdout, err = run("train", "denoiser", str(WALK), str(WALK), "-o", str(out), "--epochs", "1", "--steps", "1",
-                            "--hidden", "8", "--executor", "serial", "--holdout", "10")
+                            "--hidden", "8", "--executor", "serial", "--holdout", "10", "--noise", "angular:0.5")
     assert code == 0, err
     assert "note: --holdout 10 of 2 clips: 1 held out, 1 to train on" in " ".join(stdout.split())
 
@@ -200,7 +200,7 @@ def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):
     clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc")]
     out = tmp_path / "m"
     code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--holdout", "12_walk", "--mirror",
-                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial", "--noise", "angular:0.5")
     assert code == 0, err
     meta = deep.load_model(out / "model.pt").meta
     assert sorted(meta["train_clips"]) == ["HDM_bk_sneak2StepsLStart_004_120", "HDM_bk_sneak2StepsLStart_004_120_mirror"]
@@ -218,7 +218,7 @@ def test_train_command_cross_validates_on_folds(tmp_path):
                                                       "HDM_bk_sneak2StepsLStart_004_120.amc")]
     out = tmp_path / "cv"
     code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--folds", "2", "--holdout", "1",
-                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial", "--noise", "angular:0.5")
     assert code == 0, err
     assert (out / "fold_1" / "model.pt").is_file() and (out / "fold_2" / "model.pt").is_file()
     assert "2 holdouts: validation RMS" in stdout
@@ -481,7 +481,8 @@ def test_train_reads_amc_files_with_asf_and_amc_fps(tmp_path):
     assert code == 2 and one_error_line(err) and "--asf" in err
     out = tmp_path / "ebf"
     code, _, err = run("train", "denoiser", str(folder), "-o", str(out), "--epochs", "1", "--steps", "1",
-                       "--hidden", "8", "--executor", "serial", "--asf", str(folder / "12.asf"), "--amc-fps", "60")
+                       "--hidden", "8", "--executor", "serial", "--asf", str(folder / "12.asf"), "--amc-fps", "60",
+                       "--noise", "angular:0.5")
     assert code == 0, err
     assert deep.load_model(out / "model.pt").fps == 60
 
@@ -587,7 +588,8 @@ def test_a_model_trained_on_bandai_takes_says_its_rig_data_and_licence_wherever_
 def test_train_licence_states_a_model_licence_and_an_unknown_one_is_not_stated(tmp_path):
     from mocapkit.cleaning import deep
 
-    args = ("train", "denoiser", str(WALK), "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial")
+    args = ("train", "denoiser", str(WALK), "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial",
+            "--noise", "angular:0.5")
     code, _, err = run(*args, "-o", str(tmp_path / "a"), "--licence", "CC BY 4.0, our own takes")
     assert code == 0, err
     code, said, err = run("info", str(tmp_path / "a" / "model.pt"))
@@ -625,7 +627,7 @@ def test_a_model_trained_on_bandai_takes_says_their_licence_once(tmp_path):
     take = tmp_path / "bow_twice.npz"
     mocapkit.save(concatenate([bow, bow]), take)
     code, stdout, err = run("train", "denoiser", str(take), "-o", str(out), "--epochs", "1", "--steps", "1",
-                            "--hidden", "8", "--executor", "serial")
+                            "--hidden", "8", "--executor", "serial", "--noise", "angular:0.5")
     assert code == 0, err
     said = [ln for ln in stdout.splitlines() if "CC BY-NC 4.0" in ln]
     assert len(said) == 1 and said[0].startswith("note: model.pt keeps its takes' licence"), stdout
