@@ -187,7 +187,7 @@ def test_clean_batch_on_local_dask_cluster(serial_batch, tmp_path, capsys):
     src = _corpus(tmp_path)
     (src / "hdm" / "broken.bvh").unlink()
     out = tmp_path / "out"
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         rc = main(["clean-batch", str(src), str(out), "--executor", cluster.scheduler_address, "--steps", "fill,denoise"])
     text = capsys.readouterr().out
     assert rc == 0, text
