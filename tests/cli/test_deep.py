@@ -421,6 +421,7 @@ def test_an_interrupted_train_says_its_checkpoint_resumes(tmp_path):
     p = subprocess.Popen([sys.executable, "-m", "mocapkit.cli", "train", "denoiser", str(WALK), "-o", str(out),
                           "--epochs", "500", "--steps", "1", "--hidden", "8", "--noise", "angular:0.5",
                           "--executor", "serial"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                         env=dict(os.environ, OMP_NUM_THREADS="1"),  # one torch thread, beside the busy test workers
                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     # readiness, not speed: an epoch's model and checkpoint set has ended whole. checkpoint.pt appearing is not that:
     # it is published inside its epoch's removed_on_failure block, and an interrupt landing before the block ends
