@@ -200,7 +200,8 @@ def test_train_mirror_adds_each_training_clip_mirror_image(tmp_path):
     clips = [str(mocapkit.samples.path(n)) for n in ("12_walk.amc", "HDM_bk_sneak2StepsLStart_004_120.amc")]
     out = tmp_path / "m"
     code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--holdout", "12_walk", "--mirror",
-                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial", "--noise", "angular:0.5")
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial",
+                            "--noise", "angular:0.5")
     assert code == 0, err
     meta = deep.load_model(out / "model.pt").meta
     assert sorted(meta["train_clips"]) == ["HDM_bk_sneak2StepsLStart_004_120", "HDM_bk_sneak2StepsLStart_004_120_mirror"]
@@ -218,7 +219,8 @@ def test_train_command_cross_validates_on_folds(tmp_path):
                                                       "HDM_bk_sneak2StepsLStart_004_120.amc")]
     out = tmp_path / "cv"
     code, stdout, err = run("train", "gapfiller", *clips, "-o", str(out), "--folds", "2", "--holdout", "1",
-                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial", "--noise", "angular:0.5")
+                            "--epochs", "1", "--steps", "1", "--hidden", "4", "--executor", "serial",
+                            "--noise", "angular:0.5")
     assert code == 0, err
     assert (out / "fold_1" / "model.pt").is_file() and (out / "fold_2" / "model.pt").is_file()
     assert "2 holdouts: validation RMS" in stdout

@@ -103,8 +103,9 @@ sys.exit(main())
 # freezes the garbage collector's objects (gc.freeze: a child's collections then leave the server's objects, and the
 # memory pages they lie on, untouched, instead of copying those pages: ~0.25 s of CPU in every forked command); then
 # for each request (a JSON line on stdin: argv, cwd, limits, the files for stdout and stderr) forks a child that
-# becomes the command exactly as LAUNCHER does (new session, limits, standard streams on the files, sys.argv, main()); it answers on its original stdout with
-# the child's pid, then with its wait status and resource usage once it has exited.
+# becomes the command exactly as LAUNCHER does (new session, limits, standard streams on the files, sys.argv,
+# main()); it answers on its original stdout with the child's pid, then with its wait status and resource usage
+# once it has exited.
 FORK_SERVER = r"""
 import importlib, json, os, resource, sys
 from mocapkit.cli import main
