@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mocapkit import samples
-from mocapkit.warmup import main, reconstruct_kernels, search_kernels, warm_up
+from mocapkit.warmup import low_rate_kernels, main, reconstruct_kernels, search_kernels, warm_up
 
 
 def test_warm_up_runs_every_step_of_clean(monkeypatch):
@@ -21,10 +21,10 @@ def test_warm_up_runs_every_step_of_clean(monkeypatch):
     from mocapkit import warmup
 
     called = []
-    for name in ("search_kernels", "reconstruct_kernels"):
+    for name in ("search_kernels", "reconstruct_kernels", "low_rate_kernels"):
         monkeypatch.setattr(warmup, name, lambda name=name: called.append(name))
     out = warm_up(processes=1)
-    assert called == ["search_kernels", "reconstruct_kernels"]
+    assert called == ["search_kernels", "reconstruct_kernels", "low_rate_kernels"]
     assert list(out["steps"]) == ["fill", "detect", "repair", "denoise"]
     cells = out["steps"]  # detect changes no cell; repair changes only what detect flagged
     assert cells["fill"] > 0 and cells["repair"] > 0 and cells["denoise"] > 0, cells  # each step had work: its kernels ran
@@ -107,4 +107,29 @@ def test_reconstruct_kernels_compile_what_reconstruct_calls(tmp_path):
     joints = ["lhand", "rhand", "lfoot", "rfoot", "head", "root"]
     for base in (db, opened):
         markers.reconstruct(virtual_markers(take, joints), joints, base, take.fps, progress=False)
+    assert {n: set(k.signatures) for n, k in found.items()} == before
+
+
+@pytest.mark.filterwarnings("ignore::mocapkit.errors.LicenceWarning")  # said by test_deep_shipped.py
+def test_low_rate_kernels_compile_what_a_30fps_models_calibration_calls():
+    """After low_rate_kernels, the SURE-calibrated EBF of the Bandai Namco rig (30 fps) on a Bandai take, as clean
+    denoises it, adds no kernel signature to the noise predictor's."""
+    from pathlib import Path
+
+    from numba.core.registry import CPUDispatcher
+
+    import mocapkit
+    from mocapkit.cleaning import deep
+    from mocapkit.cleaning.deep import noise_predictor
+    from mocapkit.cleaning.deep.channels import encode
+
+    low_rate_kernels()
+    found = {n: k for n, k in vars(noise_predictor).items() if isinstance(k, CPUDispatcher)}
+    before = {n: set(k.signatures) for n, k in found.items()}
+    assert any(before.values())  # the kernel the wrapper calls (its helper is compiled into it)
+    take = mocapkit.load(Path(__file__).parent / "data" / "dataset-2_run_active_049.bvh")
+    ebf = deep.shipped_model("ebf", take)
+    assert ebf.fps == 30.0
+    x, ctx = encode(take, ebf.layout)
+    deep.denoise_channels(x, ctx, ebf, fps=take.fps)
     assert {n: set(k.signatures) for n, k in found.items()} == before

@@ -16,7 +16,8 @@ rest), then writes and reads the result as BVH and npz, and searches a
 database of the walk by LNG and by DTW (:func:`search_kernels`: the kernels of
 ``mocapkit search`` and ``reconstruct``, which ``clean`` does not call), and
 reconstructs a second of a bundled take from markers and from accelerometers
-(:func:`reconstruct_kernels`). It writes nothing but numba's cache (the files go to a temporary folder that is
+(:func:`reconstruct_kernels`), and reads the noise of a second of the walk as the EBF's calibration does for a
+30 fps model (:func:`low_rate_kernels`). It writes nothing but numba's cache (the files go to a temporary folder that is
 removed).
 """
 
@@ -33,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels", "reconstruct_kernels"]
+__all__ = ["warm_up", "broken_walk", "parallel_twins", "search_kernels", "reconstruct_kernels", "low_rate_kernels"]
 
 
 def broken_walk(gaps: bool = True):
@@ -139,6 +140,26 @@ def reconstruct_kernels() -> None:
             markers.reconstruct(virtual_markers(take, joints), joints, base, take.fps, progress=False)
 
 
+def low_rate_kernels() -> None:
+    """Read the noise of the bundled walk's first second through the symmetric interpolator of the EBF's calibration.
+
+    At a model rate up to :data:`~mocapkit.cleaning.deep.sure.PREDICTOR_MAX_FPS` (the Bandai Namco models, 30 fps)
+    the SURE calibration of the EBF's widths (:mod:`mocapkit.cleaning.deep.sure`) reads the noise through
+    :func:`~mocapkit.cleaning.deep.noise_predictor.predictor_noise_std` as well as through second differences; the
+    bundled walk is denoised at 120 fps, where it is not called, so ``clean`` of the first 30 fps take compiled it
+    (about 6 s of CPU). Its wrapper casts every argument (float64 channels, bool mask, int64 block edges), so any
+    channels fix the kernel's types: here the walk's (F, J) quaternion w components, in two blocks.
+    """
+    from . import samples
+    from .cleaning.deep.noise_predictor import predictor_noise_std
+    from .cleaning.deep.sure import block_edges
+    from .io import load
+
+    walk = load(samples.path("12_walk.amc"))
+    x = walk.rotations[: int(walk.fps), :, 0]
+    predictor_noise_std(x, np.ones(x.shape, dtype=bool), block_edges(len(x), len(x) // 2))
+
+
 def warm_up(processes: int | None = None) -> dict:
     """Run every step of :func:`mocapkit.clean` on a bundled take (and on a short piece of it) once.
 
@@ -185,6 +206,7 @@ def warm_up(processes: int | None = None) -> dict:
         clean(take[: int(2 * take.fps)], context, steps="fill,detect,repair")
         search_kernels()
         reconstruct_kernels()
+        low_rate_kernels()
         with tempfile.TemporaryDirectory() as tmp:
             for suffix in (".bvh", ".npz"):
                 path = save(result.motion, Path(tmp) / f"walk{suffix}")
