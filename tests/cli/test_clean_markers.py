@@ -150,11 +150,14 @@ def test_max_gap_and_max_fill_error_leave_gaps_missing_and_say_why(cut_take, tmp
 
 @pytest.fixture
 def mixed_folder(cut_take, tmp_path):
-    """IN_DIR with the cut marker capture and a skeletal take."""
+    """IN_DIR with the cut marker capture and a skeletal take (the CMU sample's first 2 s: what a batch does with a
+    joint-angle take beside a marker capture does not depend on its length)."""
+    import mocapkit
+
     src = tmp_path / "in"
     src.mkdir()
     shutil.copy(cut_take[0], src / "markers.c3d")
-    shutil.copy(SAMPLE, src / "walk.bvh")
+    mocapkit.save(mocapkit.load(SAMPLE)[:240], src / "walk.bvh")
     return src
 
 
@@ -199,7 +202,15 @@ def test_review_mode_batch_writes_its_marker_captures_unchanged(mixed_folder, tm
     assert np.array_equal(a.positions, b.positions, equal_nan=True) and (tmp_path / "out" / "walk.bvh").exists()
 
 
-def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
+@pytest.fixture(scope="module")
+def eb015pr_as_c3d(tmp_path_factory):
+    """``clean Eb015pr.c3d -o e.c3d``, run once for the two tests that read what it said and wrote: (out, exit code,
+    stdout, stderr)."""
+    out = tmp_path_factory.mktemp("eb015pr") / "e.c3d"
+    return (out, *run("clean", mocapkit_sample("Eb015pr.c3d"), "-o", out))
+
+
+def test_what_the_output_format_cannot_hold_is_said_in_one_note(eb015pr_as_c3d, tmp_path):
     # trial11: C3D -> TRC / npz dropped analogs, events, parameters, residuals and camera masks without a word
     c3d = mocapkit_sample("Eb015pr.c3d")
     code, stdout, _ = run("clean", c3d, "-o", tmp_path / "x.trc")
@@ -210,7 +221,7 @@ def test_what_the_output_format_cannot_hold_is_said_in_one_note(tmp_path):
     assert all("samples the cleaning wrote" in n or "interpolated" in n for n in said[:-1])  # what TRC cannot tell apart
     code, stdout, _ = run("convert", c3d, tmp_path / "x.npz")
     assert code == 0 and f"note: {tmp_path / 'x.npz'}: not written, as a marker npz cannot hold them" in stdout
-    code, stdout, _ = run("clean", c3d, "-o", tmp_path / "y.c3d")
+    _, code, stdout, _ = eb015pr_as_c3d  # clean Eb015pr.c3d -o e.c3d
     assert code == 0 and "note: " not in stdout
 
 
@@ -287,7 +298,7 @@ def test_the_record_console_and_batch_json_count_filled_and_spike_samples_alike(
     # and clean-batch --json said 40 filled and 3 spikes
     import json
 
-    ms = load_markers(CMU)
+    ms = load_markers(CMU)[:480]  # the take's first 4 s hold the gap and the spike: the counts are of them alone
     y = np.array(ms.positions) * 10.0 * ms.unit_cm
     y[300:340, 4] = np.nan  # a 40-frame gap
     y[100:103, 9] += [35.0, -40.0, 20.0]  # a 3-frame spike, 57 mm
@@ -316,7 +327,7 @@ def test_clean_of_a_missing_file_onto_itself_names_the_missing_file(tmp_path):
 
 
 def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_listed(cut_take, cut_take_as_trc,
-                                                                                       tmp_path):
+                                                                                       eb015pr_as_c3d, tmp_path):
     """trial27: 263 filled samples of a cleaned TRC looked exactly like recorded ones and the summary said nothing
     (a C3D output marks them with residual 0; TRC has no residual column)."""
     _, _, mask = cut_take
@@ -336,13 +347,13 @@ def test_a_trc_output_says_how_many_of_its_samples_are_fills_and_where_they_are_
     assert (f"note: {tmp_path / 'out' / 'cut.trc'}: {int(mask.sum())} samples the cleaning wrote (gaps filled, spikes and duplicates replaced) are "
             "written like recorded ones") in stdout
     eb = load_markers(mocapkit_sample("Eb015pr.c3d"))  # residuals over 0: its fills are marked with residual 0 ...
-    code, stdout, stderr = run("clean", mocapkit_sample("Eb015pr.c3d"), "-o", tmp_path / "e.c3d")
+    e_c3d, code, _, stderr = eb015pr_as_c3d  # clean Eb015pr.c3d -o e.c3d
     assert code == 0, stderr
-    with np.load(tmp_path / "e.clean.npz") as rec:
+    with np.load(e_c3d.with_name("e.clean.npz")) as rec:
         made = int(rec["filled"].sum() + rec["spikes"].sum()
                    + (rec["duplicates"].sum() if "duplicates" in rec.files else 0))  # foreign stretches refilled too
     marked = made + int(np.sum(~eb.missing() & (eb.residuals == 0)))  # and so were the capture program's own fills
-    code, stdout, stderr = run("convert", tmp_path / "e.c3d", tmp_path / "again.trc")  # ... which TRC loses: said
+    code, stdout, stderr = run("convert", e_c3d, tmp_path / "again.trc")  # ... which TRC loses: said
     assert code == 0, stderr
     assert (f"note: {tmp_path / 'again.trc'}: {marked} samples the input marks as interpolated (residual 0) "
             "are written like recorded ones") in stdout
