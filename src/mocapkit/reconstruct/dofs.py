@@ -52,7 +52,7 @@ def on_joint_dofs(motion: Motion) -> Motion:
     rot = np.array(motion.rotations, dtype=np.float64)
     some = few & (n_rot > 0)
     if some.any():
-        held = amc_held_rotations(motion, dofs)
+        held = amc_held_rotations(motion, dofs, joints=np.flatnonzero(some))  # bones of 3 dofs are kept as given
         held = np.where(np.sum(held * rot, axis=-1, keepdims=True) < 0, -held, held)
         off = np.nan_to_num(np.abs(held - rot).max(axis=-1), nan=0.0) > _ON_DOFS  # (F, J)
         cells = off & some[None, :]
