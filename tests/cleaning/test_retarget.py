@@ -114,6 +114,8 @@ def test_decode_keeps_what_the_model_did_not_change(walk, ebf):
 
 
 def test_denoise_and_fill_agree_on_both_spellings(walk, ebf):
+    # the walk's first 120 frames (1 s): the two spellings' agreement does not depend on the take's length
+    walk = walk[:120]
     noisy, _ = corrupt.angular_noise(walk, 0.5, seed=3)
     a = deep.denoise(noisy)
     b = deep.denoise(motionbuilder_spelling(noisy))
