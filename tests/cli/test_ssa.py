@@ -15,7 +15,7 @@ BANDAI = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_0
 
 
 def test_detect_and_repair(tmp_path):
-    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:600]  # 5 s: the injected flip and RThumb turn-overs
     bad, mask, records = corrupt.real_errors(walk, kinds=("flip",), n_errors=1, seed=1, joints=["LeftKnee"])
     inp = tmp_path / "bad.bvh"
     mocapkit.save(bad, inp)
@@ -291,7 +291,7 @@ def test_repair_puts_back_a_root_teleport_as_clean_does(tmp_path):
     from tests.cleaning.test_take_breaks import _moved_root
 
     for src in (mocapkit.samples.path("131_01.bvh"), BANDAI):  # the root position; the Bandai Hips' animated offset
-        walk = mocapkit.load(src)
+        walk = mocapkit.load(src)[:400]  # the CMU walk's first 400 frames (the Bandai dash's 20): a jump mid-take
         f = walk.num_frames // 2
         inp = tmp_path / f"tele_{src.stem}.bvh"
         mocapkit.save(_moved_root(walk, slice(f, f + 2), (100.0, 0.0, 0.0)), inp, like=src)
@@ -354,7 +354,7 @@ def test_detect_and_repair_say_the_stutters_clean_says(tmp_path):
     """A frame written again bit for bit while the take moves: clean names it; detect and repair said nothing."""
     import dataclasses
 
-    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))
+    walk = mocapkit.load(mocapkit.samples.path("131_01.bvh"))[:600]  # the stutter's note, whatever the take's length
     rot, root = np.array(walk.rotations), np.array(walk.root_positions)
     rot[505], root[505] = rot[504], root[504]
     inp = tmp_path / "stutter.npz"
