@@ -86,11 +86,12 @@ def context_cache(tmp_path_factory):
 # worker, `make test`) no worker is left with one of them at the end while the other idles. Measured as `make test`
 # runs them (serial, one torch thread, warm numba cache, without ../shared, -m "not slow"; CPU user+sys on a 2-core
 # VM): tests/cli/test_clean.py 41 s, tests/cli/test_deep.py 40 s, tests/cleaning/ssa/test_word_dtw.py 30 s,
-# tests/test_fuzz_commands.py 30 s, tests/test_warmup.py 20 s, tests/reconstruct/test_accelerometers.py 18 s; the
+# tests/test_fuzz_commands.py 30 s, tests/cli/test_reconstruct.py 23 s, tests/test_warmup.py 20 s,
+# tests/reconstruct/test_accelerometers.py 18 s; the
 # same names take tests/cleaning/test_deep.py (torch training) and tests/cleaning/markers/test_clean.py along.
 # test_amc_writer.py is long where ../shared is present (every shared AMC round-tripped).
 LONG_MODULES = ("test_clean.py", "test_deep.py", "test_word_dtw.py", "test_fuzz_commands.py", "test_warmup.py",
-                "test_accelerometers.py", "test_amc_writer.py")
+                "test_accelerometers.py", "test_reconstruct.py", "test_amc_writer.py")
 
 
 def pytest_collection_modifyitems(items):
