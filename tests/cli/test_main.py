@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import mocapkit
-from mocapkit.cli import main
+from mocapkit.cli import command, main
 from tests.cli import helpers
 from tests.cli.helpers import SAMPLE, one_error_line, run
 
@@ -559,3 +559,14 @@ def test_a_command_started_with_a_stream_closed_ends_without_a_traceback(monkeyp
         with pytest.raises(SystemExit) as ended:
             cli.run()
         assert ended.value.code == status
+
+
+def test_the_command_tree_is_built_once_per_process():
+    """main() run again in one process (a suite, a Python caller) reuses the click command typer built, which
+    ~20-50 ms of building at every call would otherwise cost; each run still parses its own arguments."""
+    assert run("--version")[0] == 0
+    built = command.cache_info().misses
+    code, out, _ = run("info", SAMPLE)
+    assert code == 0 and "131_01" in out
+    assert command.cache_info().misses == built and command.cache_info().hits >= 1
+    assert run("info", "--no-such-option")[0] == 2  # the reused command still refuses what it does not know

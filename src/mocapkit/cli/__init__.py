@@ -23,6 +23,7 @@ What every command guarantees:
 from __future__ import annotations
 
 import atexit
+import functools
 import os
 import sys
 import threading
@@ -34,7 +35,7 @@ from . import clean as clean_cmds
 from . import db, deep, motion, reconstruct, ssa
 from .common import FlagsCommand, FlagsGroup
 
-__all__ = ["app", "main", "version"]
+__all__ = ["app", "command", "main", "version"]
 
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
@@ -131,6 +132,18 @@ def main(argv: list[str] | None = None) -> int:
             raise
 
 
+@functools.cache
+def command():
+    """The click command that typer builds from :data:`app`, built once per process.
+
+    Calling ``app(...)`` builds the whole command tree again (~20-50 ms) at
+    each call; a process running :func:`main` many times (a test suite, a
+    Python caller driving the CLI) builds it once. The commands keep no state
+    between calls: click makes a new context for each.
+    """
+    return typer.main.get_command(app)
+
+
 def _run_app(argv: list[str] | None) -> int:
     """:func:`main`'s work: the app run, every failure turned into its line and exit status."""
     from ..interrupts import interrupts_as_keyboard_interrupt
@@ -139,7 +152,7 @@ def _run_app(argv: list[str] | None) -> int:
     GIVEN_ARGS.set(tuple(sys.argv[1:] if argv is None else argv))  # an output path as typed (common.as_typed)
     try:
         with interrupts_as_keyboard_interrupt():  # SIGTERM too, so atomic writes clean up (see mocapkit.interrupts)
-            result = app(args=argv, standalone_mode=False)
+            result = command()(args=argv, standalone_mode=False)
     except BaseException as exc:  # noqa: BLE001 - every failure ends in one line and an exit status
         return _exit_status(exc, sys.argv[1:] if argv is None else list(argv))
     if result == EXIT_INTERRUPTED:  # typer turns an interrupt inside a command into Exit(130)
