@@ -130,6 +130,31 @@ def test_a_marker_on_the_sphere_about_its_still_partner_is_a_spike(cmu):
     assert mask[300:305, a].all() and not mask[300:305, b].any()
 
 
+def test_a_partner_off_in_the_runs_context_vouches_for_nothing(cmu):
+    # 85_02 at 60 Hz (every 2nd frame) with the spikes marker_clean's low-rate row cuts into it: RWRB moved
+    # 100 mm on 363-364 and RWRA 81 mm on 365. RWRA's 365 lands 1.0 mm from its usual distance to RWRB (spread
+    # 1.3 mm), and RWRB, whose cubic through RWRA's context frames bends to its own spike, seems to move with
+    # it: RWRB vouched for RWRA's spike, which was kept.
+    labels = read_c3d(CMU).labels
+    a, b = _label(labels, "RWRA"), _label(labels, "RWRB")
+    x = cmu[::2]
+    y = x.copy()
+    y[363:365, b] += [34.9, -19.2, 86.4]
+    y[365, a] += [34.7, 38.5, -62.6]
+    stats = distance_stats(x)
+    assert abs(np.linalg.norm(y[365, a] - y[365, b]) - stats.median[a, b]) < 1.5
+    mask = spike_mask(y, fps=60.0)
+    assert mask[363:365, b].all() and mask[365, a]
+    assert mask.sum() == 3
+    # RWRB breaks its distance to RWRA on 363-364, where RWRA is good: it is off there, and cannot vouch
+    run = np.zeros(y.shape[:2], bool)
+    run[363:365, b] = run[365, a] = True
+    good = ~run[:, a]
+    tol = np.maximum(3.0, 3.0 * stats.spread[a])
+    vouched = partner_vouched(y, good, a, 365, 366, np.array([b]), stats.median[a], tol, run, 3.0, reach=8)
+    assert vouched.tolist() == [False]
+
+
 def test_without_its_partner_a_flick_is_judged_by_the_other_rules(cmu):
     # RWRB unseen around the flick: nothing vouches for RWRA (partner_motion gives None) and the cubic and
     # rigid-triple rules decide, as before the partner rule: the flick is removed.

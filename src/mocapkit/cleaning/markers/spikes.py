@@ -25,8 +25,10 @@ error:
   spike moves one marker; its partners stay on their cubic. The partners
   judge each sample (:func:`partner_vouched`): a run is cut to the samples
   none of them vouches for, not condemned whole for one of its samples
-  (a punch's first frame off the wrist bar). This check can only keep
-  samples; where no partner is seen it says nothing.
+  (a punch's first frame off the wrist bar). A partner off itself beside
+  the run (its distance broken on a frame where the marker is good) vouches
+  for nothing there. This check can only keep samples; where no partner is
+  seen it says nothing.
 * **in space**: a marker rides on a body segment with other markers. The
   candidate run is predicted from the moving frame of rigidly attached
   markers (:func:`rigid_deviation`: its coordinates in the frame of each
@@ -392,7 +394,8 @@ def rigid_deviation(positions: np.ndarray, good: np.ndarray, marker: int, start:
 
 def partner_vouched(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
                     partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
-                    step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> np.ndarray | None:
+                    step: float, context: int = 3, reach: int = 8, share: float = 0.25,
+                    flagged: np.ndarray | None = None) -> np.ndarray | None:
     """(end - start,) bool: the samples of ``marker``'s run (frames ``start <= f < end``) its rigid partners vouch for.
 
     ``positions`` (F, M, 3), NaN where unseen; ``good`` (F,) the marker's
@@ -423,11 +426,23 @@ def partner_vouched(positions: np.ndarray, good: np.ndarray, marker: int, start:
     motion on the samples whose distance held, and a sample beside the run
     that is itself off is not their reference.
 
+    A partner that is ``flagged`` (F, M; default ``suspect``: the samples
+    still taken as spikes) on a context frame where its distance to the
+    marker, good there, does not hold is off itself there: its cubic through
+    those frames bends to its own spike, and its departure from it says
+    nothing of the segment's motion. It keeps no sample of the run (it may
+    still break one). A spike beside the partner's own spike may otherwise
+    land on the sphere about it and be vouched for (CMU 85_02 at 60 Hz with
+    RWRB moved 100 mm on two frames and RWRA 81 mm on the next, 1.0 mm from
+    its usual distance to RWRB). Once the partner's flags there are released
+    as motion, it vouches again.
+
     Returns None when no partner is seen over the run and its context, or
     the marker's context is missing (nothing to judge by: the caller falls
     back to its other rules).
     """
     f = positions.shape[0]
+    flagged = suspect if flagged is None else flagged
     before = np.flatnonzero(good[max(start - reach, 0):start]) + max(start - reach, 0)
     after = np.flatnonzero(good[end:min(end + reach, f)]) + end
     if before.size < context or after.size < context or len(partners) == 0:
@@ -447,19 +462,22 @@ def partner_vouched(positions: np.ndarray, good: np.ndarray, marker: int, start:
         if np.any(np.isnan(positions[frames, j])):
             continue  # the partner is missing here: it cannot vouch for the marker
         judged = True
-        moved = np.linalg.norm(positions[start:end, j] - w @ positions[ctx, j], axis=-1)
         dist = np.full(around.size, np.nan)
         dist[inside] = np.linalg.norm(positions[around[inside], marker] - positions[around[inside], j], axis=-1)
         with np.errstate(invalid="ignore"):
             holds = np.abs(dist - median[j]) <= tol[j]  # False where unseen
             jump = np.abs(np.diff(dist)) > step  # (run + 1,) between consecutive frames
+        own_holds = holds[1:-1]
+        broken |= ~own_holds & ~suspect[start:end, j]
+        held = np.abs(np.linalg.norm(positions[ctx, marker] - positions[ctx, j], axis=-1) - median[j]) <= tol[j]
+        if np.any(flagged[ctx, j] & ~held):
+            continue  # off itself on a context frame where the marker is good: its cubic bends to its own spike
+        moved = np.linalg.norm(positions[start:end, j] - w @ positions[ctx, j], axis=-1)
         # a jump counts against a sample only towards an adjacent frame whose distance holds as well (beside
         # the run, a good frame of the marker: a spike candidate there may be off itself)
         back = jump[:-1] & (holds & reference)[:-2]
         ahead = jump[1:] & (holds & reference)[2:]
-        own_holds = holds[1:-1]
         kept |= own_holds & ~back & ~ahead & (moved >= share * own)
-        broken |= ~own_holds & ~suspect[start:end, j]
     if not judged:
         return None
     return kept & ~broken
@@ -652,7 +670,7 @@ def spike_mask(positions: np.ndarray, unit_mm: float = 1.0, *, threshold_mm: flo
                 partners = np.flatnonzero(spread[mk] * unit_mm <= partner_mm)
                 tol = np.maximum(keep_mm / unit_mm, keep_spreads * np.nan_to_num(spread[mk], nan=np.inf))
                 vouched = partner_vouched(x, good[:, mk], mk, a, b, partners, stats.median[mk], tol, suspect,
-                                          keep_mm / unit_mm, context=context, reach=pad)
+                                          keep_mm / unit_mm, context=context, reach=pad, flagged=mask)
                 vouched = np.zeros(b - a, dtype=bool) if vouched is None else vouched
                 if not vouched.all() and rigid_deviation(x, good[:, mk], mk, a, b, order, reach=pad,
                                                          nearby=clear[:, mk], suspect=mask) <= thr[mk]:
