@@ -11,7 +11,7 @@ from scipy.spatial.transform import Rotation
 
 from mocapkit.cleaning.markers import clean_markers, spike_mask
 from mocapkit.cleaning.markers.rigid import DistanceStats, distance_stats, donor_order
-from mocapkit.cleaning.markers.spikes import partner_motion, partner_vouched, rigid_deviation
+from mocapkit.cleaning.markers.spikes import bends_with_neighbours, partner_motion, partner_vouched, rigid_deviation
 from mocapkit.io.c3d import read_c3d
 
 CMU = Path(__file__).resolve().parents[2] / "data" / "85_02.c3d"
@@ -155,6 +155,23 @@ def test_a_partner_off_in_the_runs_context_vouches_for_nothing(cmu):
     assert vouched.tolist() == [False]
 
 
+def test_a_head_marker_whose_partners_spike_beside_it_is_kept_as_it_bends_with_them(cmu):
+    # 85_02 at 30 Hz (every 4th frame) with three of the spikes marker_clean's low-rate row cuts into it, on
+    # LFHD's rigid partners: LBHD at 118, RBHD at 118-119, RFHD at 122. LFHD's own samples at 119-121 are as
+    # recorded (the head moving faster than the cubic at 30 Hz follows). Its partners, flagged on its context
+    # frames and off their distance to it there, vouch for nothing; its path bends as its neighbours' do: kept.
+    labels = read_c3d(CMU).labels
+    x = cmu[::4]
+    y = x.copy()
+    y[118, _label(labels, "LBHD")] += [-30.6, -19.3, -15.4]
+    y[118:120, _label(labels, "RBHD")] += [-5.7, 53.4, -66.8]
+    y[122, _label(labels, "RFHD")] += [1.9, -67.3, -49.2]
+    mask = spike_mask(y, fps=30.0)
+    assert mask[118, _label(labels, "LBHD")] and mask[118:120, _label(labels, "RBHD")].all()
+    assert mask[122, _label(labels, "RFHD")]
+    assert not mask[110:130, _label(labels, "LFHD")].any()
+
+
 def test_without_its_partner_a_flick_is_judged_by_the_other_rules(cmu):
     # RWRB unseen around the flick: nothing vouches for RWRA (partner_motion gives None) and the cubic and
     # rigid-triple rules decide, as before the partner rule: the flick is removed.
@@ -180,7 +197,9 @@ def _slice(part, path=SLICES):
 @pytest.mark.parametrize("part,kept,removed", [
     # fast strikes the tester found removed (each within 0.2-2.7 mm of its usual distance to its wrist-bar
     # partner, which moved with it); the real glitches next to them (258 mm off the pair; an 84 mm one-frame jump)
-    ("arm", [("LWRA", 2688, 2693), ("LWRB", 2694, 2699), ("RWRA", 3223, 3228)],
+    # RFIN 2709-2711: the hand braking at a punch's end (7 -> 2 m/s), its path bending 12-29 mm a frame while the
+    # wrist markers' bend 3-38 mm; no partner within 3 mm, and the hand turns about the wrist (no triple predicts it)
+    ("arm", [("LWRA", 2688, 2693), ("LWRB", 2694, 2699), ("RWRA", 3223, 3228), ("RFIN", 2709, 2712)],
      # LWRA 2503: a one-frame jump out and back (second differences 95, 130, 99 mm while LWRB's are 11), its
      # distance to LWRB 5 mm from the previous frame's and 3.7 mm from the next one's, where that distance holds
      [("RWRA", 3875, 3882), ("RWRB", 2419, 2420), ("RWRB", 2446, 2449), ("LWRA", 2503, 2504)]),
@@ -196,6 +215,25 @@ def test_135_02_fast_strikes_are_kept_and_its_glitches_removed(part, kept, remov
         assert not mask[a - first:b - first, labels.index(name)].any(), (name, a)
     for name, a, b in removed:
         assert mask[a - first:b - first, labels.index(name)].all(), (name, a)
+
+
+def test_a_path_that_bends_with_its_neighbours_is_motion_judged_over_the_whole_flagged_stretch():
+    # 135_02's RFIN 2709-2711 bends no more than its neighbours (at most 7.6 mm more than the most bent one);
+    # RWRA 3875-3881, a linear ramp away from RWRB and a jump back (a bad source fill), bends only at its
+    # ends: a piece from inside it passes alone, but the whole flagged stretch is judged.
+    x, labels, first, stats = _slice("arm")
+    order = donor_order(stats)
+    fin, wra = labels.index("RFIN"), labels.index("RWRA")
+    flagged = np.zeros(x.shape[:2], bool)
+    flagged[2709 - first:2712 - first, fin] = True
+    flagged[2711 - first, wra] = True
+    assert bends_with_neighbours(x, fin, 2709 - first, 2712 - first, order, flagged, 15.0)
+    assert not bends_with_neighbours(x, fin, 2709 - first, 2712 - first, order, flagged, 5.0)
+    piece = np.zeros(x.shape[:2], bool)
+    piece[3876 - first:3879 - first, wra] = True
+    assert bends_with_neighbours(x, wra, 3876 - first, 3879 - first, order, piece, 15.0)
+    piece[3875 - first:3882 - first, wra] = True
+    assert not bends_with_neighbours(x, wra, 3876 - first, 3879 - first, order, piece, 15.0)
 
 
 def test_135_02_a_punch_its_wrist_bar_partner_holds_is_kept_sample_by_sample():
