@@ -533,6 +533,7 @@ def bends_with_neighbours(positions: np.ndarray, marker: int, start: int, end: i
     most = np.max(np.where(usable, d2[:, near], -np.inf), axis=1)
     return bool(np.all(own <= most + threshold))
 
+
 def partner_motion(positions: np.ndarray, good: np.ndarray, marker: int, start: int, end: int,
                    partners: np.ndarray, median: np.ndarray, tol: np.ndarray, suspect: np.ndarray,
                    step: float, context: int = 3, reach: int = 8, share: float = 0.25) -> bool | None:
