@@ -58,7 +58,7 @@ from .calibration import calibration_mask, calibration_poses
 from .denoise_guard import Guarded, guarded_take
 from .measured import filled_channels_note, keep_measured, keep_measured_in_repair, kept_note, measured_axes
 from .zeros import as_missing, find_zeros
-from . import take_breaks
+from . import take_breaks as tb
 
 __all__ = ["MAX_WORD_ANGLE_DEG", "MADE_UP_SHARE", "TakeDetection", "TakeFill", "TakeRepair", "take_params",
            "motion_span", "made_up_note", "resolve_model", "fill_take", "denoise_take", "denoise_guarded", "check_no_zeros", "detect_take", "take_cuts", "across_breaks",
@@ -301,7 +301,7 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
         raise MocapError(f"{name}: detect: {exc}") from None
     before = len(det.notes)
     an = det.analysis  # its midpoint residuals are part's when it analysed part itself
-    found = take_breaks.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
+    found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     det = across_breaks(part, det, lo=lo, found=found)
     return TakeDetection(det.padded(lo, F) if poses else det, poses, span, breaks=tuple(det.notes[before:]),
                          cuts=tuple(dataclasses.replace(c, frame=c.frame + lo) for c in found))
@@ -313,9 +313,9 @@ def take_cuts(motion: Motion) -> list:
     missing or written as 0 where the capture lost data (:func:`~mocapkit.cleaning.zeros.find_zeros`) no evidence.
     What ``mocapkit info`` names."""
     lo, hi = motion_span(calibration_poses(motion), motion.num_frames)
-    if hi - lo < take_breaks.CUT_MIN_FRAMES:
+    if hi - lo < tb.CUT_MIN_FRAMES:
         return []
-    return take_breaks.cuts(motion, span=(lo, hi), ignore=find_zeros(motion)[0] | motion.missing())
+    return tb.cuts(motion, span=(lo, hi), ignore=find_zeros(motion)[0] | motion.missing())
 
 
 def across_breaks(part: Motion, det, *, lo: int = 0, found=None):
@@ -332,10 +332,6 @@ def across_breaks(part: Motion, det, *, lo: int = 0, found=None):
     ``found``: the :class:`~mocapkit.cleaning.take_breaks.Cut` s of ``part`` when the caller has them (None: found
     here).
     """
-    import dataclasses
-
-    from . import take_breaks as tb
-
     events = tb.root_events(part)
     if found is None:
         an = det.analysis  # its midpoint residuals are part's when it analysed part itself
@@ -441,8 +437,6 @@ def _repaired(motion: Motion, detection, context=None, *, foot_skate: bool = Fal
     """``(TakeRepair, span, leaves, put_back)``: :func:`repair_whole` before the turn-overs, the frames ``(lo, hi)``
     it looked at, the joints self-similarity did not analyse (whose constant half turns :func:`turn_overs` looks
     for), and the teleports put back (:class:`~mocapkit.cleaning.take_breaks.RootEvent`, ``fixed``)."""
-    from . import take_breaks as tb
-
     F = motion.num_frames
     if detection.span is None and poses is None:
         poses = calibration_poses(motion)
