@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 
@@ -31,6 +32,21 @@ def browser():
             yield b
         finally:
             b.close()
+
+
+@contextlib.contextmanager
+def opened(browser, path):
+    """A Chromium page on the report at ``path``, once drawn and its review ready; no page error by its close."""
+    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
+    pg = ctx.new_page()
+    errors = []
+    pg.on("pageerror", lambda e: errors.append(str(e)))
+    pg.goto(path.resolve().as_uri())
+    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
+                         timeout=60000)
+    yield pg
+    ctx.close()
+    assert errors == []
 
 
 @pytest.fixture(scope="module")
@@ -162,36 +178,28 @@ def test_review_mode_lists_every_flag_with_the_rule_that_raised_it(browser, tmp_
     flags = D.flag_segments(res)
     assert not res.changed.any() and len(flags) > 1 and all(f["why"] for f in flags)
     assert sum(f["last"] - f["first"] + 1 for f in flags) == res.flags.sum()
-    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
-    pg = ctx.new_page()
-    errors = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
-    pg.goto((tmp_path / "walk.html").resolve().as_uri())
-    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
-                         timeout=60000)
-    assert pg.inner_text("#changes p:last-of-type").strip() == "The cleaning changed nothing."
-    # nothing to decide, and the page says so: no accept/reject/download buttons that would do nothing
-    assert pg.inner_text("#nothing-to-decide").startswith("Nothing to decide: the cleaning changed no sample")
-    assert "review mode" in pg.inner_text("#nothing-to-decide")
-    assert "Accept or reject each one" not in pg.inner_text("#changes")
-    for button in ("#accept-all", "#reject-all", "#download-decisions", "#decision-count", "#change-nav"):
-        assert pg.locator(button).count() == 0, button
-    rows = pg.locator("#flags tbody tr")
-    assert rows.count() == len(flags)
-    for k, f in enumerate(flags):
-        cells = rows.nth(k).locator("td")
-        assert cells.nth(0).inner_text() == f["joint"]
-        assert cells.nth(1).inner_text() == (str(f["first"]) if f["first"] == f["last"] else f"{f['first']}-{f['last']}")
-        # an animator's sentence first, the rules' words as its detail
-        assert cells.nth(2).locator(".detail").inner_text() == "(" + ", ".join(f["why"]) + ")"
-        assert cells.nth(2).inner_text().startswith(plain_sentence("", f["why"]))
-        assert cells.nth(3).inner_text() == "left as it was: the repair step did not run"
-    f = flags[-1]
-    rows.nth(len(flags) - 1).locator("button.jump").click()
-    assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
-    assert pg.evaluate("() => window.mocapkitReport.selectedJointName()") == f["joint"]
-    ctx.close()
-    assert errors == []
+    with opened(browser, (tmp_path / "walk.html")) as pg:
+        assert pg.inner_text("#changes p:last-of-type").strip() == "The cleaning changed nothing."
+        # nothing to decide, and the page says so: no accept/reject/download buttons that would do nothing
+        assert pg.inner_text("#nothing-to-decide").startswith("Nothing to decide: the cleaning changed no sample")
+        assert "review mode" in pg.inner_text("#nothing-to-decide")
+        assert "Accept or reject each one" not in pg.inner_text("#changes")
+        for button in ("#accept-all", "#reject-all", "#download-decisions", "#decision-count", "#change-nav"):
+            assert pg.locator(button).count() == 0, button
+        rows = pg.locator("#flags tbody tr")
+        assert rows.count() == len(flags)
+        for k, f in enumerate(flags):
+            cells = rows.nth(k).locator("td")
+            assert cells.nth(0).inner_text() == f["joint"]
+            assert cells.nth(1).inner_text() == (str(f["first"]) if f["first"] == f["last"] else f"{f['first']}-{f['last']}")
+            # an animator's sentence first, the rules' words as its detail
+            assert cells.nth(2).locator(".detail").inner_text() == "(" + ", ".join(f["why"]) + ")"
+            assert cells.nth(2).inner_text().startswith(plain_sentence("", f["why"]))
+            assert cells.nth(3).inner_text() == "left as it was: the repair step did not run"
+        f = flags[-1]
+        rows.nth(len(flags) - 1).locator("button.jump").click()
+        assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
+        assert pg.evaluate("() => window.mocapkitReport.selectedJointName()") == f["joint"]
 
 
 def test_jump_lands_on_each_change_and_flag_of_a_long_take(browser, tmp_path):
@@ -211,34 +219,26 @@ def test_jump_lands_on_each_change_and_flag_of_a_long_take(browser, tmp_path):
     assert not changed[rejected.first, rejected.joint_index]
     out = write_report(tmp_path / "long.html", bad, cleaned, mdm=res.mdm, flags=res.flags, changed=changed,
                        max_frames=400, review=D.review(bad, res, take="bad.npz", output="out.npz", decisions=chosen))
-    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
-    pg = ctx.new_page()
-    errors = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
-    pg.goto(out.resolve().as_uri())
-    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
-                         timeout=60000)
-    assert pg.evaluate("() => window.mocapkitReport.info.stride") == 3
-    scale = unit_scale_cm(take.skeleton)
-    rows = pg.locator("#changes tbody tr")
-    assert rows.count() == len(found)
-    for k, c in enumerate(found):
-        rows.nth(k).locator("button.jump").click()
-        assert pg.evaluate("() => [window.mocapkitReport.frame(), window.mocapkitReport.selectedJointName()]") == \
-            [c.first, c.joint], c.id
-        # the pose drawn is that frame's, in both panels
-        for which, motion in (("original", bad), ("cleaned", cleaned)):
-            got = np.array(pg.evaluate(f"() => window.mocapkitReport.position('{which}', {c.first}, {c.joint_index})"), float)
-            want = motion[c.first].global_positions()[0, c.joint_index] * scale
-            assert np.abs(got - want).max() < 0.06, (c.id, which)
-    flags = D.flag_segments(res)
-    frows = pg.locator("#flags tbody tr")
-    assert frows.count() == len(flags) > 0
-    for k, f in enumerate(flags):
-        frows.nth(k).locator("button.jump").click()
-        assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
-    ctx.close()
-    assert errors == []
+    with opened(browser, out) as pg:
+        assert pg.evaluate("() => window.mocapkitReport.info.stride") == 3
+        scale = unit_scale_cm(take.skeleton)
+        rows = pg.locator("#changes tbody tr")
+        assert rows.count() == len(found)
+        for k, c in enumerate(found):
+            rows.nth(k).locator("button.jump").click()
+            assert pg.evaluate("() => [window.mocapkitReport.frame(), window.mocapkitReport.selectedJointName()]") == \
+                [c.first, c.joint], c.id
+            # the pose drawn is that frame's, in both panels
+            for which, motion in (("original", bad), ("cleaned", cleaned)):
+                got = np.array(pg.evaluate(f"() => window.mocapkitReport.position('{which}', {c.first}, {c.joint_index})"), float)
+                want = motion[c.first].global_positions()[0, c.joint_index] * scale
+                assert np.abs(got - want).max() < 0.06, (c.id, which)
+        flags = D.flag_segments(res)
+        frows = pg.locator("#flags tbody tr")
+        assert frows.count() == len(flags) > 0
+        for k, f in enumerate(flags):
+            frows.nth(k).locator("button.jump").click()
+            assert pg.evaluate("() => window.mocapkitReport.frame()") == f["first"]
 
 
 def test_decisions_from_a_cleaning_with_a_context_apply_to_its_values_only(browser, tmp_path, capsys):
@@ -428,24 +428,16 @@ def test_a_cut_is_listed_with_its_score_and_said_in_the_summary_not_offered_as_a
     assert main(["clean", str(inp), "-o", str(out), "--report", str(html)]) == 0
     res = CleanResult.load(tmp_path / "out.clean.npz")
     assert res.cuts == (Cut(200, 0.7),) and not res.changed[195:206].any()
-    ctx = browser.new_context(viewport={"width": 1280, "height": 900})
-    pg = ctx.new_page()
-    errors = []
-    pg.on("pageerror", lambda e: errors.append(str(e)))
-    pg.goto(html.resolve().as_uri())
-    pg.wait_for_function("() => window.mocapkitReport && window.mocapkitReview && window.mocapkitReport.drawCount() > 0",
-                         timeout=60000)
-    assert pg.evaluate("() => window.mocapkitReview.cuts()") == [200]
-    row = pg.locator("#changes #cuts tbody tr")
-    assert row.count() == 1 and row.get_attribute("data-cut") == "200"
-    cells = row.locator("td")
-    assert cells.nth(0).inner_text() == "200" and cells.nth(1).inner_text() == "70 % of the joints"
-    assert "jump at once between frames 199 and 200" in cells.nth(2).inner_text()
-    assert cells.nth(3).inner_text().startswith("nothing: no sample changed for it")
-    assert row.locator("input").count() == 0  # not a change: nothing to accept or reject
-    assert "1 cut at frame 200 (two takes joined, or frames dropped): no sample changed for it" in pg.inner_text("#summary")
-    row.locator("button.jump").click()
-    assert pg.evaluate("() => window.mocapkitReport.frame()") == 200
-    assert pg.evaluate("() => window.mocapkitReview.changes()") == [c.id for c in D.changes(res, mocapkit.load(inp))]
-    ctx.close()
-    assert errors == []
+    with opened(browser, html) as pg:
+        assert pg.evaluate("() => window.mocapkitReview.cuts()") == [200]
+        row = pg.locator("#changes #cuts tbody tr")
+        assert row.count() == 1 and row.get_attribute("data-cut") == "200"
+        cells = row.locator("td")
+        assert cells.nth(0).inner_text() == "200" and cells.nth(1).inner_text() == "70 % of the joints"
+        assert "jump at once between frames 199 and 200" in cells.nth(2).inner_text()
+        assert cells.nth(3).inner_text().startswith("nothing: no sample changed for it")
+        assert row.locator("input").count() == 0  # not a change: nothing to accept or reject
+        assert "1 cut at frame 200 (two takes joined, or frames dropped): no sample changed for it" in pg.inner_text("#summary")
+        row.locator("button.jump").click()
+        assert pg.evaluate("() => window.mocapkitReport.frame()") == 200
+        assert pg.evaluate("() => window.mocapkitReview.changes()") == [c.id for c in D.changes(res, mocapkit.load(inp))]
