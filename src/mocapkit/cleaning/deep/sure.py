@@ -37,10 +37,12 @@ Limits: the estimate assumes noise independent from frame to frame, as
 capture noise at the networks' own rate is; a take resampled to a model's
 rate correlates it, so only takes at the model's rate are calibrated
 (:func:`mocapkit.cleaning.deep.denoise_channels`). The streaming
-:class:`mocapkit.cleaning.deep.Denoiser` calibrates each block by
-:func:`calibrated_log_sigma` once the frames it needs have arrived (the block,
-:data:`READ_BEYOND` frames either side and enough of the take after it to fix
-its edges): the offline widths, a block and a half behind the capture.
+:class:`mocapkit.cleaning.deep.Denoiser` keeps the network's widths by
+default (15 frames behind the capture); with ``calibrate=True`` it calibrates
+each block by :func:`calibrated_log_sigma` once the frames it needs have
+arrived (the block, :data:`READ_BEYOND` frames either side and enough of the
+take after it to fix its edges): the offline widths, a block and a half
+behind.
 """
 
 from __future__ import annotations
