@@ -31,6 +31,20 @@ def model(noisy):
         return deep.inference.model_of_kind(None, "ebf", noisy.skeleton)
 
 
+@pytest.fixture(scope="module")
+def offline(noisy, model):
+    """{calibrate: deep.denoise_rows of the noisy dance's rows}, each made once for the tests that compare with it."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return {c: deep.denoise_rows(noisy.skeleton, noisy.channel_values(), noisy.fps, model, calibrate=c)
+                for c in (True, False)}
+
+
+def _apart(a, b):
+    """Degrees: the largest difference between two takes' channel rows, wrapped to [-180, 180)."""
+    return np.abs((a - b + 180.0) % 360.0 - 180.0).max()
+
+
 def _stream(noisy, model, **kw):
     s = deep.Denoiser(noisy.skeleton, noisy.fps, model, **kw)
     pushed = [s.push(r) for r in noisy.channel_values()]
@@ -41,30 +55,26 @@ def test_the_model_has_wrapped_channels(model):
     assert wrapped_channels(model.net.std.numpy()).any()  # the Bandai rig's UpperLeg_R, Hips
 
 
-def test_streaming_equals_offline_calibrated(noisy, model):
+def test_streaming_equals_offline_calibrated(noisy, model, offline):
     rows = noisy.channel_values()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s, pushed, stream = _stream(noisy, model, calibrate=True)
-        offline = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=True)
         take = deep.denoise(noisy, model, guard=False)
     assert s.lag == 179  # a 120-frame block and the 60 frames that fix its edges
     assert [o is None for o in pushed] == [k < s.lag for k in range(len(rows))]
     assert stream.shape == rows.shape
-    assert np.abs((stream - offline + 180.0) % 360.0 - 180.0).max() < 1e-3  # float32 rounding only
+    assert _apart(stream, offline[True]) < 1e-3  # float32 rounding only
     streamed = mocapkit.Motion.from_channel_values(noisy.skeleton, stream, noisy.fps, animated_offsets=True)
     assert np.degrees(np.nanmax(metrics.geodesic_pose_distance(take, streamed)[:, 1:])) < 1e-3
 
 
-def test_uncalibrated_streaming_keeps_the_network_widths_15_frames_behind(noisy, model):
-    rows = noisy.channel_values()
+def test_uncalibrated_streaming_keeps_the_network_widths_15_frames_behind(noisy, model, offline):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         s, pushed, stream = _stream(noisy, model, calibrate=False)
-        offline = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=False)
-        calibrated = deep.denoise_rows(noisy.skeleton, rows, noisy.fps, model, calibrate=True)
         default = deep.Denoiser(noisy.skeleton, noisy.fps, model)
     assert default.lag == 15  # a live stream's default: the look-ahead, not a block and a half
     assert s.lag == 15 and pushed[14] is None and pushed[15] is not None
-    assert np.abs((stream - offline + 180.0) % 360.0 - 180.0).max() < 1e-3
-    assert np.abs((stream - calibrated + 180.0) % 360.0 - 180.0).max() > 1.0  # the calibration changes the take
+    assert _apart(stream, offline[False]) < 1e-3
+    assert _apart(stream, offline[True]) > 1.0  # the calibration changes the take
