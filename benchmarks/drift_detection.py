@@ -70,6 +70,9 @@ clean too: every such cell is harm), and the drift rule's statistic on the
 drifted cells (``agreement``, ``consistency``), and which gate of the rule stops which cells
 (:func:`gate_blockers`: ``gate_blockers_drifted`` on the drifted cells, ``gate_blockers_untouched`` on the
 untouched takes' judged cells; a gate that stops many of the first and few of the second is worth a look).
+``details.results`` also gives, per set and group, the recall of the drifts that overlap in time another drift on
+their left/right partner, parent or child (``recall_paired_drifts``, :func:`paired_drifts`: the partner and chain
+gates take that neighbour's digression for a style's) apart from the others' (``recall_single_drifts``).
 
     python benchmarks/drift_detection.py --json
     python benchmarks/drift_detection.py --quick --json     # a few takes per set
@@ -231,6 +234,40 @@ def gate_blockers(det, cells) -> dict:
     return out
 
 
+def paired_drifts(records, joint_names, parents) -> np.ndarray:
+    """(n,) bool: which of one seed's drifts ``records`` overlaps in time another drift on its left/right partner,
+    its parent or one of its children.
+
+    The drift rule takes such a neighbour's digression at the same frames for a style's (``drift_partner_ratio``:
+    a style is often two-sided; ``drift_chain_ratio``: a style bends a chain), so two drifts there at once are
+    refused by design; ``details.results`` scores their recall apart (``recall_paired_drifts``) from that of the
+    others (``recall_single_drifts``)."""
+    from mocapkit.motion import mirror_pairs
+
+    perm = mirror_pairs(joint_names)
+    idx = [list(joint_names).index(r.joint) for r in records]
+    out = np.zeros(len(records), dtype=bool)
+    for a, (ra, ja) in enumerate(zip(records, idx)):
+        for b, (rb, jb) in enumerate(zip(records, idx)):
+            near = (jb == perm[ja] and jb != ja) or parents[ja] == jb or parents[jb] == ja
+            out[a] |= a != b and near and rb.start < ra.end and ra.start < rb.end
+    return out
+
+
+def drift_recall(flags, truth, ignore, records, paired, joint_names, fps) -> dict:
+    """``{"recall_single_drifts": (tp, fn), "recall_paired_drifts": (tp, fn)}``: the words of the drifts that
+    :func:`paired_drifts` calls single (paired) found by ``flags``, the other drifts' cells left unscored."""
+    out = {}
+    for name, which in (("recall_single_drifts", ~paired), ("recall_paired_drifts", paired)):
+        cells = np.zeros(truth.shape, dtype=bool)
+        for r, w in zip(records, which):
+            if w:
+                cells[r.start:r.end, list(joint_names).index(r.joint)] = True
+        sc = score(flags, truth & cells, fps, ignore | (truth & ~cells))
+        out[name] = (sc.tp, sc.fn)
+    return out
+
+
 def add_counts(stats, name, counts):
     total = stats.setdefault(name, {})
     for k, v in counts.items():
@@ -259,6 +296,11 @@ def run_case(name, clean, context, drifts, seeds, fps_db, stats, totals, key, ro
                          det.params.confirm, det.params.confirm_margin_s, None)
         dr = det.drifts()
         add_counts(stats, f"{key}/gate_blockers_drifted", gate_blockers(det, truth))
+        paired = paired_drifts(records, clean.skeleton.joint_names, clean.skeleton.parents)
+        for k, (tp, fn) in drift_recall(det.flags, truth, ignore, records, paired, clean.skeleton.joint_names,
+                                        clean.fps).items():
+            for part in [key] + ([f"{key}/{content_group(name)}"] if key != "hdm05" else []):
+                add_counts(stats, f"{part}/{k}", {"tp": tp, "fn": fn})
         # the same analysis with the drift rule reading the angle ratio (``drift_change`` off)
         unchanged = flag_rule(det.mdm, det.jumps, det.holds, det.swaps, det.offsets, det.threshold, det.fps,
                               det.params.confirm, det.params.confirm_margin_s,
@@ -397,6 +439,9 @@ def main(argv=None):
                     baselines[f"bandai dance {c} {what}"] = dance["local"]["ssa"][what]
     summary = {}
     for k, v in stats.items():
+        if k.rsplit("/", 1)[-1].startswith("recall_"):  # drift_recall's words: found and missed, and their recall
+            results[k] = {"recall": round(v["tp"] / (v["tp"] + v["fn"]), 4) if v["tp"] + v["fn"] else None, **v}
+            continue
         if isinstance(v, list):  # NaN: a drift on a joint the analysis left out (not among the informative joints)
             v = np.asarray(v, dtype=float)
             ok = v[np.isfinite(v)]
