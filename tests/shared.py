@@ -310,3 +310,19 @@ def joined_sneaks():
     a, b = a[:200], b[start:]
     return dataclasses.replace(a, rotations=np.concatenate([a.rotations, b.rotations]),
                                root_positions=np.concatenate([a.root_positions, b.root_positions]), name="joined")
+
+
+def joined_sneaks_apart():
+    """Two real takes joined end to end where the second capture starts elsewhere (a cut at frame 200 with a root
+    jump): HDM05 actor bk's sneak 004, frames 0-199, then its sneak 005 from its first frame, whose root stands 78 cm
+    from where 004's frame 199 left it, on 004's skeleton."""
+    import dataclasses
+
+    import numpy as np
+
+    import mocapkit
+
+    a = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"))[:200]
+    b = mocapkit.load(mocapkit.samples.path("HDM_bk_sneak2StepsLStart_005_120.amc"))
+    return dataclasses.replace(a, rotations=np.concatenate([a.rotations, b.rotations]),
+                               root_positions=np.concatenate([a.root_positions, b.root_positions]), name="joined")

@@ -36,8 +36,8 @@ from ..motion import Motion
 from ..words import frame_span
 
 __all__ = ["CUT_KEPT", "JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
-           "Cut", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores", "cuts",
-           "cut_mask"]
+           "Cut", "with_root_jumps", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores",
+           "cuts", "cut_mask"]
 
 JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
 #: cm: a measured axis of a position the file gives partly ``nan`` is put on the line only when it alone is this far off
@@ -95,21 +95,39 @@ CUT_KEPT = ("nothing: no sample changed for it; its breaks confirm no repair, th
 @dataclass(frozen=True)
 class Cut:
     """A frame where the whole body jumps: ``frame``, the first frame after the break (of two takes joined, the
-    second's first frame), and the ``share`` of the moving joints breaking there (the cut's score, 0-1)."""
+    second's first frame), the ``share`` of the moving joints breaking there (the cut's score, 0-1), and
+    ``root_cm``, how far the root's path jumps at that frame and stays (cm, as :class:`RootEvent` measures a
+    "jump"; 0 where the root does not jump there): two takes joined whose captures start at another place."""
 
     frame: int
     share: float
+    root_cm: float = 0.0
+
+    def _root(self) -> str:
+        return f", and the root jumps {self.root_cm:.0f} cm with them" if self.root_cm else ""
 
     @property
     def meaning(self) -> str:
         """What the break means for a person deciding about it, one sentence."""
         return (f"{100 * self.share:.0f} % of the moving joints jump at once between frames {self.frame - 1} and "
-                f"{self.frame}, far over their own motion: two takes joined here (frame {self.frame} the second's "
-                "first), or frames dropped; split the take here, or keep it whole")
+                f"{self.frame}, far over their own motion{self._root()}: two takes joined here (frame {self.frame} "
+                "the second's first), or frames dropped; split the take here, or keep it whole")
 
     def __str__(self) -> str:
-        return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once): a cut, "
-                "or dropped frames; its breaks confirm no repair, the motion on either side is kept")
+        return (f"frame {self.frame}: the whole body jumps ({100 * self.share:.0f} % of the joints at once"
+                f"{self._root()}): a cut, or dropped frames; its breaks confirm no repair, the motion on either side "
+                "is kept")
+
+
+def with_root_jumps(found, events) -> tuple[list[Cut], list[RootEvent]]:
+    """``(cuts, events)``: the cuts ``found`` (:class:`Cut`), each at whose frame the root jumps and stays (a
+    ``"jump"`` of ``events``, :class:`RootEvent`, counted in the same frames) given that jump's size as its
+    ``root_cm``, and ``events`` without those jumps. A cut where the captures joined start at another place is one
+    finding, said once: a cut with a root jump, not a jump "left as it is: which side is right is not known"."""
+    jumps = {e.first: e for e in events if e.kind == "jump"}
+    cuts = [dataclasses.replace(c, root_cm=float(jumps[c.frame].size_cm)) if c.frame in jumps else c for c in found]
+    at = {c.frame for c in found}
+    return cuts, [e for e in events if not (e.kind == "jump" and e.first in at)]
 
 
 def pelvis_path_cm(motion: Motion) -> tuple[np.ndarray, int]:

@@ -81,8 +81,8 @@ class TakeDetection:
     take, left alone; ``span``: ``(lo, hi)``, the frames between them; ``breaks``: the lines among the
     detection's notes that name the take's cuts and its root's jumps (:func:`across_breaks`), which a summary
     may count past the first few (a long take of many cuts names dozens); ``cuts``: the
-    :class:`~mocapkit.cleaning.take_breaks.Cut` s found, at the take's frames (those where the root jumps too
-    included: their line names the jump), which the report lists.
+    :class:`~mocapkit.cleaning.take_breaks.Cut` s found, at the take's frames (those where the root jumps and stays
+    too with its size, ``root_cm``: their line names both), which the report lists.
     """
 
     detection: object
@@ -302,7 +302,9 @@ def detect_take(motion: Motion, context=None, *, threshold: float = 0.5, params=
     before = len(det.notes)
     an = det.analysis  # its midpoint residuals are part's when it analysed part itself
     found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
-    det = across_breaks(part, det, lo=lo, found=found)
+    events = tb.root_events(part)
+    det = across_breaks(part, det, lo=lo, found=found, events=events)
+    found = tb.with_root_jumps(found, events)[0]
     return TakeDetection(det.padded(lo, F) if poses else det, poses, span, breaks=tuple(det.notes[before:]),
                          cuts=tuple(dataclasses.replace(c, frame=c.frame + lo) for c in found))
 
@@ -315,10 +317,11 @@ def take_cuts(motion: Motion) -> list:
     lo, hi = motion_span(calibration_poses(motion), motion.num_frames)
     if hi - lo < tb.CUT_MIN_FRAMES:
         return []
-    return tb.cuts(motion, span=(lo, hi), ignore=find_zeros(motion)[0] | motion.missing())
+    found = tb.cuts(motion, span=(lo, hi), ignore=find_zeros(motion)[0] | motion.missing())
+    return tb.with_root_jumps(found, tb.root_events(motion, (lo, hi)))[0] if found else found
 
 
-def across_breaks(part: Motion, det, *, lo: int = 0, found=None):
+def across_breaks(part: Motion, det, *, lo: int = 0, found=None, events=None):
     """``det`` (a detection of ``part``, the frames analysed: the take's frames ``lo ..``) with the take's breaks
     said and judged as such.
 
@@ -330,15 +333,18 @@ def across_breaks(part: Motion, det, *, lo: int = 0, found=None):
     it turned round by up to 172 deg). The notes name the take's frames (``lo`` on from part's), as the repair
     step's lines do: named at part's, a teleport after a calibration T-pose was said one frame early.
     ``found``: the :class:`~mocapkit.cleaning.take_breaks.Cut` s of ``part`` when the caller has them (None: found
-    here).
+    here); ``events``: the :class:`~mocapkit.cleaning.take_breaks.RootEvent` s of ``part``'s root (None: found here).
+    A cut where the root jumps and stays is said once, as a cut with a root jump
+    (:func:`~mocapkit.cleaning.take_breaks.with_root_jumps`).
     """
-    events = tb.root_events(part)
+    events = tb.root_events(part) if events is None else events
     if found is None:
         an = det.analysis  # its midpoint residuals are part's when it analysed part itself
         found = tb.cuts(part, resid=an.residuals if an is not None and an.motion is part else None)
     at = sorted({c.frame for c in found} | {e.first for e in events if e.kind == "jump"})
-    said = ([dataclasses.replace(e, first=e.first + lo, last=e.last + lo) for e in events]
-            + [dataclasses.replace(c, frame=c.frame + lo) for c in found if not any(e.first == c.frame for e in events)])
+    found, rest = tb.with_root_jumps(found, events)
+    said = ([dataclasses.replace(e, first=e.first + lo, last=e.last + lo) for e in rest]
+            + [dataclasses.replace(c, frame=c.frame + lo) for c in found if not any(e.first == c.frame for e in rest)])
     lines = [str(x) for x in said]
     if not lines:
         return det

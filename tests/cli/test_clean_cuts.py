@@ -1,0 +1,52 @@
+"""What `clean` and `clean-batch` say of a take made of two real takes joined: the cut, with the root's jump where
+the second capture starts elsewhere, in one line; the batch's lines, JSON and overview name the cut per take; and the
+batch's last lines say where each take's record and report are, or that none was asked for."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+import mocapkit
+from mocapkit.cleaning.pipeline import CleanResult
+from mocapkit.cleaning.take_breaks import Cut
+from mocapkit.report.html import cut_rows
+
+from tests.shared import joined_sneaks_apart
+
+from . import helpers
+
+DANCE = Path(__file__).parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+
+
+@pytest.fixture(scope="module")
+def takes(tmp_path_factory):
+    """IN_DIR of two real takes: HDM05 bk sneak 004 then 005 joined (a cut at frame 200, the root 78 cm away after
+    it) and the first 60 frames of a Bandai Namco dance (no cut)."""
+    d = tmp_path_factory.mktemp("cuts") / "in"
+    d.mkdir()
+    mocapkit.save(joined_sneaks_apart(), d / "joined.bvh")
+    shutil.copy(DANCE, d / "dance.bvh")
+    return d
+
+
+def test_a_cut_where_the_root_jumps_is_one_line_naming_both(takes, tmp_path):
+    """The root of sneak 005 starts 78 cm from where 004's frame 199 left it: `clean` said only "frame 200: the root
+    (root) jumps 78 cm and stays there (an offset, or a cut); left as it is: which side is right is not known", and
+    the record and report knew a cut with no word of the jump. Now one line names the cut and the jump, and the
+    record's cut keeps its size."""
+    out = tmp_path / "o.bvh"
+    rc, text, err = helpers.run("clean", takes / "joined.bvh", "-o", out, "--steps", "detect")
+    assert rc == 0, err
+    said = [ln for ln in text.splitlines() if "frame 200" in ln]
+    assert len(said) == 1 and ("frame 200: the whole body jumps (76 % of the joints at once, and the root jumps 78 cm "
+                               "with them): a cut, or dropped frames") in said[0], text
+    assert "stays there" not in text
+    cuts = CleanResult.load(out.with_name("o.clean.npz")).cuts
+    assert len(cuts) == 1 and cuts[0].frame == 200 and round(cuts[0].root_cm) == 78
+    row = cut_rows(cuts)[0]  # the report's Cuts table
+    assert "and the root jumps 78 cm with them: two takes joined here" in row["meaning"]
+    assert str(Cut(200, 0.7)) == ("frame 200: the whole body jumps (70 % of the joints at once): a cut, or dropped "
+                                  "frames; its breaks confirm no repair, the motion on either side is kept")
