@@ -379,7 +379,8 @@ class BatchSummary:
 
     ``rows``: one dict per take, sorted by input: ``input``, ``output``,
     ``status`` (``done``/``skipped``/``failed``), ``reason`` (one line),
-    ``seconds`` and, for cleaned takes, the counts of cells changed, ``warnings`` (a step's fallback, a model's
+    ``seconds`` and, for cleaned takes, the counts of cells changed, ``cuts`` (each
+    :class:`~mocapkit.cleaning.take_breaks.Cut`'s fields: two takes joined, or frames dropped), ``warnings`` (a step's fallback, a model's
     licence: lines that name no file) and ``file_notes`` (what the reader did, what the output's format leaves out:
     each line names the file it is about, as ``clean`` prints them; paths as the caller gave them).
     ``renamed``: the inputs whose output is named after the input's format because
@@ -500,6 +501,7 @@ def _clean_job(job: dict) -> dict:
             row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
                        denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), notes=list(res.notes),
                        left=left_line(res), judged=not_judged_note(res.detection, res.num_frames),
+                       cuts=[dataclasses.asdict(c) for c in res.cuts],  # named, no sample changed for them
                        warnings=[n for n in res.notes if n in said],
                        file_notes=motion_notes(taken, out, job["input"]))  # each line names its file (OUT)
     except _Orphaned:

@@ -10,6 +10,7 @@ flagged, repaired and denoised; a marker capture's changed samples by kind), rea
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
@@ -24,7 +25,8 @@ WRITTEN_NOTE = "written before the batch was interrupted; said from its record"
 def row_from_record(inp, output, record) -> dict:
     """The batch row of the take ``inp`` written to ``output`` with its ``.clean.npz`` ``record``: ``status`` "done",
     the sample counts the record keeps (``frames``; ``filled``, ``repaired``, ``denoised``, ``flagged`` of a
-    joint-angle take; a marker capture's :func:`~mocapkit.cleaning.markers.counts.sample_counts`: ``changed``,
+    joint-angle take, and its ``cuts``, each :class:`~mocapkit.cleaning.take_breaks.Cut`'s fields; a marker
+    capture's :func:`~mocapkit.cleaning.markers.counts.sample_counts`: ``changed``,
     ``filled``, ``spikes``, ``swapped``, ``duplicates``, ``foreign``, and its
     :func:`~mocapkit.cleaning.markers.counts.fill_counts`: ``gaps``, ``unvalidated``), ``seconds`` None (not
     measured here)
@@ -42,7 +44,8 @@ def row_from_record(inp, output, record) -> dict:
     else:
         res = CleanResult.load(record)
         row.update(frames=res.num_frames, filled=int(res.filled.sum()), repaired=int(res.repaired.sum()),
-                   denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), left=left_line(res))
+                   denoised=int(res.denoised.sum()), flagged=int(res.flags.sum()), left=left_line(res),
+                   cuts=[dataclasses.asdict(c) for c in res.cuts])
     return row
 
 

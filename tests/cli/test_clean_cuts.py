@@ -4,6 +4,7 @@ batch's last lines say where each take's record and report are, or that none was
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -12,6 +13,7 @@ import pytest
 import mocapkit
 from mocapkit.cleaning.pipeline import CleanResult
 from mocapkit.cleaning.take_breaks import Cut
+from mocapkit.report.batch_index import INDEX_NAME
 from mocapkit.report.html import cut_rows
 
 from tests.shared import joined_sneaks_apart
@@ -19,6 +21,7 @@ from tests.shared import joined_sneaks_apart
 from . import helpers
 
 DANCE = Path(__file__).parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh"
+CUT = "1 cut at frame 200 (two takes joined, or frames dropped; the root jumps 78 cm there): no sample changed for it"
 
 
 @pytest.fixture(scope="module")
@@ -50,3 +53,26 @@ def test_a_cut_where_the_root_jumps_is_one_line_naming_both(takes, tmp_path):
     assert "and the root jumps 78 cm with them: two takes joined here" in row["meaning"]
     assert str(Cut(200, 0.7)) == ("frame 200: the whole body jumps (70 % of the joints at once): a cut, or dropped "
                                   "frames; its breaks confirm no repair, the motion on either side is kept")
+
+
+def test_the_batch_names_each_takes_cuts_in_its_line_its_json_and_its_overview(takes, tmp_path):
+    """A batch named the cut nowhere: its line, `--json` and `index.html` read as for a take with nothing in it."""
+    out = tmp_path / "out"
+    rc, text, err = helpers.run("clean-batch", takes, out, "--executor", "serial", "--steps", "fill,detect",
+                                "--report")
+    assert rc == 0, err
+    line = next(ln for ln in text.splitlines() if ln.startswith(f"cleaned {takes / 'joined.bvh'}"))
+    assert f"nothing to change; {CUT}" in line
+    dance = next(ln for ln in text.splitlines() if ln.startswith(f"cleaned {takes / 'dance.bvh'}"))
+    assert " cut at frame" not in dance
+    page = (out / INDEX_NAME).read_text(encoding="utf-8")
+    row = next(ln for ln in page.splitlines() if "joined.report.html" in ln)
+    assert CUT in row and 'class="untouched cut"' in row
+    assert "1 take has cuts (two takes joined, or frames dropped), named in its row" in page
+    rc, text, err = helpers.run("clean-batch", takes, tmp_path / "json", "--executor", "serial", "--steps",
+                                "fill,detect", "--json")
+    assert rc == 0, err
+    rows = {r["input"].rsplit("/", 1)[-1]: r for r in json.loads(text)["rows"]}
+    assert rows["dance.bvh"]["cuts"] == []
+    (cut,) = rows["joined.bvh"]["cuts"]
+    assert cut["frame"] == 200 and round(cut["root_cm"]) == 78 and 0.6 <= cut["share"] <= 1

@@ -81,3 +81,24 @@ def test_a_users_own_index_is_replaced_only_with_overwrite_and_a_batch_of_failur
     s = clean_batch(bad, tmp_path / "out2", steps=["fill"], executor="serial", progress=False, report=True)
     assert s.count("failed") == 1 and s.index is None
     assert not (tmp_path / "out2" / INDEX_NAME).exists()
+
+
+def test_each_takes_cuts_are_named_in_its_row_and_a_take_with_cuts_comes_first_in_its_group(tmp_path):
+    """A take spliced from two captures (the rows' ``cuts``, as a batch gives them) was listed as untouched with
+    nothing said: its cuts are named in its row, it comes before the untouched takes without one, and the page
+    counts the takes with cuts."""
+    from mocapkit.cleaning.take_breaks import cuts_phrase
+
+    out = tmp_path / "out"
+    cuts = [{"frame": 200, "share": 0.76, "root_cm": 78.4}, {"frame": 504, "share": 0.7, "root_cm": 0.0}]
+    rows = [_row("plain", frames=600, filled=0, repaired=0, denoised=0, flagged=0, cuts=[]),
+            _row("spliced", frames=600, filled=0, repaired=0, denoised=0, flagged=0, cuts=cuts)]
+    assert [Path(r["input"]).stem for r in ordered_rows(rows)] == ["spliced", "plain"]
+    said = ("2 cuts at frames 200 and 504 (two takes joined, or frames dropped; the root jumps 78 cm at frame 200): "
+            "no sample changed for them")
+    assert cuts_phrase(cuts) == said and cuts_phrase([]) == ""
+    page = write_batch_index(out / INDEX_NAME, rows, in_dir=tmp_path / "in", out_dir=out).read_text(encoding="utf-8")
+    spliced = next(line for line in page.splitlines() if "spliced.bvh" in line)
+    assert said in spliced and 'class="untouched cut"' in spliced
+    assert "cut at" not in next(line for line in page.splitlines() if "plain.bvh" in line)
+    assert "1 take has cuts (two takes joined, or frames dropped), named in its row" in page

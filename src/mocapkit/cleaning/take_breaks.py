@@ -33,11 +33,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..motion import Motion
-from ..words import frame_span
+from ..words import frame_span, listed, plural
 
 __all__ = ["CUT_KEPT", "JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "CUT_SHARE", "CUT_RATIO", "CUT_MIN_DEG", "RootEvent",
-           "Cut", "with_root_jumps", "pelvis_path_cm", "root_jumps", "root_events", "fix_teleports", "cut_scores",
-           "cuts", "cut_mask"]
+           "Cut", "with_root_jumps", "PHRASE_CUTS", "cuts_phrase", "pelvis_path_cm", "root_jumps", "root_events",
+           "fix_teleports", "cut_scores", "cuts", "cut_mask"]
 
 JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
 #: cm: a measured axis of a position the file gives partly ``nan`` is put on the line only when it alone is this far off
@@ -128,6 +128,28 @@ def with_root_jumps(found, events) -> tuple[list[Cut], list[RootEvent]]:
     cuts = [dataclasses.replace(c, root_cm=float(jumps[c.frame].size_cm)) if c.frame in jumps else c for c in found]
     at = {c.frame for c in found}
     return cuts, [e for e in events if not (e.kind == "jump" and e.first in at)]
+
+
+#: the frames of cuts a take's phrase names (:func:`cuts_phrase`); past them, a count
+PHRASE_CUTS = 12
+
+
+def cuts_phrase(found) -> str:
+    """The cuts ``found`` (:class:`Cut`, or their fields as a dict: a batch row's ``cuts``) of one take in one
+    phrase, as ``clean-batch``'s line for the take and its overview say them: ``"1 cut at frame 200 (two takes
+    joined, or frames dropped; the root jumps 78 cm there): no sample changed for it"``; the first
+    :data:`PHRASE_CUTS` frames, then a count; "" for none."""
+    found = [c if isinstance(c, Cut) else Cut(**c) for c in found]
+    if not found:
+        return ""
+    n = len(found)
+    frames = [str(c.frame) for c in found[:PHRASE_CUTS]] + ([f"{n - PHRASE_CUTS} more"] if n > PHRASE_CUTS else [])
+    jumps = [c for c in found if c.root_cm]
+    root = ("; the root jumps " + listed(f"{c.root_cm:.0f} cm" + ("" if n == 1 else f" at frame {c.frame}")
+                                         for c in jumps[:PHRASE_CUTS]) + (" there" if n == 1 else "")
+            + (f" and at {len(jumps) - PHRASE_CUTS} more" if len(jumps) > PHRASE_CUTS else "")) if jumps else ""
+    return (f"{plural(n, 'cut')} at frame{'s' if n > 1 else ''} {listed(frames)} (two takes joined, or frames "
+            f"dropped{root}): no sample changed for {'it' if n == 1 else 'them'}")
 
 
 def pelvis_path_cm(motion: Motion) -> tuple[np.ndarray, int]:

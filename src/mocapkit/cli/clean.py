@@ -330,6 +330,7 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     """One line per take of a batch: what was found and fixed, or why it failed or was skipped; ``done``: the word
     a take done starts with ("reviewed" in review mode, --steps detect, where nothing is changed)."""
     from ..cleaning.markers.counts import unvalidated_words
+    from ..cleaning.take_breaks import cuts_phrase
 
     if row["status"] == "failed":
         reason, name = str(row["reason"]), str(row["input"])
@@ -352,6 +353,8 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     what = ", ".join(found) if found else "nothing to change"
     # flags left as they were and frames detection never judged: the counts alone read as all of it checked
     what = "; ".join([what] + [row[k] for k in ("left", "judged") if row.get(k)])
+    cuts = cuts_phrase(row.get("cuts") or ())  # named for a person to decide: no sample changed for them
+    what += f"; {cuts}" if cuts else ""
     # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
     seconds = row.get("seconds", 0.0)
     said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]
