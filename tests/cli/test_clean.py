@@ -756,7 +756,8 @@ def test_clean_batch_in_review_mode_says_reviewed(tmp_path, capsys):
     assert rc == 0, text
     lines = text.splitlines()
     assert any(ln.startswith(f"reviewed {src / 'walk.npz'} -> ") for ln in lines), text
-    assert not any(ln.startswith("cleaned ") for ln in lines) and "1 reviewed," in lines[-1], text
+    totals = next(ln for ln in lines if ln.startswith("1 take on "))
+    assert not any(ln.startswith("cleaned ") for ln in lines) and "1 reviewed," in totals, text
 
 
 def test_a_take_clean_refuses_is_named_once_by_its_file(tmp_path):

@@ -76,3 +76,32 @@ def test_the_batch_names_each_takes_cuts_in_its_line_its_json_and_its_overview(t
     assert rows["dance.bvh"]["cuts"] == []
     (cut,) = rows["joined.bvh"]["cuts"]
     assert cut["frame"] == 200 and round(cut["root_cm"]) == 78 and 0.6 <= cut["share"] <= 1
+
+
+def test_the_batch_says_where_each_takes_record_and_report_are_and_that_none_was_asked_for(takes, tmp_path):
+    """Without --report a batch wrote each take's record, and no report or overview; its last line said only the
+    totals, so a person looked for an index.html that was never asked for. Now a line says where the files are and,
+    without --report, how to get the reports; no file is added."""
+    out = tmp_path / "out"
+    rc, text, err = helpers.run("clean-batch", takes, out, "--executor", "serial", "--steps", "fill", "--png")
+    assert rc == 0, err
+    assert text.splitlines()[-1] == (
+        f"each take's files are beside its output in {out}: STEM.clean.npz (its record: changes, flags and cuts) "
+        "and STEM.summary.png (its summary figure); no reports were asked for: --report writes STEM.report.html "
+        f"beside each output and {out / INDEX_NAME} over them (with --overwrite for the takes already complete)")
+    written = sorted(p.name for p in out.iterdir())
+    assert {"dance.clean.npz", "joined.clean.npz", "joined.summary.png"} <= set(written), written
+    assert not [n for n in written if n.endswith(".html")]  # no report or overview: none was asked for
+    rc, text, err = helpers.run("clean-batch", takes, out, "--executor", "serial", "--steps", "fill", "--png",
+                                "--report", "--overwrite")
+    assert rc == 0, err
+    assert text.splitlines()[-2:] == [
+        f"wrote {out / INDEX_NAME}: every take with its report, the takes to look at first",
+        f"each take's files are beside its output in {out}: STEM.clean.npz (its record: changes, flags and cuts), "
+        "STEM.report.html (its report) and STEM.summary.png (its summary figure)"]
+    assert (out / "joined.report.html").is_file() and (out / INDEX_NAME).is_file()
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "b.bvh").write_text("junk\n")
+    rc, text, _ = helpers.run("clean-batch", bad, tmp_path / "none", "--executor", "serial", "--steps", "fill")
+    assert rc == 1 and "each take's files" not in text  # no take written: nothing to point at

@@ -361,6 +361,24 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     return f"{done} {row['input']} -> {row['output']}: {what} ({'; '.join(x for x in said if x)})"
 
 
+def files_line(out_dir, *, report: bool, png: bool, any_take: bool) -> str:
+    """The line ``clean-batch`` ends with that says where each take's files are, "" where no take was cleaned or
+    is complete (``any_take`` False). The take lines name the outputs only: a person looking for what the cleaning
+    did needs the record beside each (``STEM.clean.npz``: the changes, flags and cuts, to accept or reject) and, with
+    ``--report``, the report; without it, that no report was written and how to get one, so that the overview
+    (``OUT_DIR/index.html``) is not looked for where it was never asked for."""
+    if not any_take:
+        return ""
+    files = ["STEM.clean.npz (its record: changes, flags and cuts)"]
+    files += ["STEM.report.html (its report)"] if report else []
+    files += ["STEM.summary.png (its summary figure)"] if png else []
+    line = f"each take's files are beside its output in {out_dir}: {listed(files)}"
+    if report:
+        return line
+    return (line + "; no reports were asked for: --report writes STEM.report.html beside each output and "
+            f"{Path(out_dir) / 'index.html'} over them (with --overwrite for the takes already complete)")
+
+
 def start_line(in_dir, todo: int, total: int, where: str) -> str:
     """The line ``clean-batch`` prints on standard error as its first take is handed out (``todo`` of ``total``
     takes under ``in_dir``, cleaned on ``where``: ``BatchSummary.executor``): a log said nothing until the first
@@ -423,7 +441,8 @@ def clean_batch(
     take.bvh and take.c3d) are named after their input's format (take-amc.bvh, take-bvh.bvh, take-c3d.c3d),
     each said in a note line. Every output is checked against every input before any take is cleaned.
     Prints one line per take as it finishes (completion order; the complete ones first), each ending
-    "[N/TOTAL]" when stdout is not a terminal, then the totals; exits 1 if any take failed. A full disk,
+    "[N/TOTAL]" when stdout is not a terminal, then the totals and where each take's record (and reports) are;
+    exits 1 if any take failed. A full disk,
     a used-up quota or a read-only file system stops the batch: the takes under way finish, the rest are
     left for a rerun to resume.
     """
@@ -479,6 +498,9 @@ def clean_batch(
                       + (f", {summary.not_started} not started" if summary.stopped else ""))
         if summary.index is not None:
             console.print(f"wrote {summary.index}: every take with its report, the takes to look at first")
+        where = files_line(out_dir, report=report, png=png, any_take=any(r["status"] != "failed" for r in summary.rows))
+        if where:
+            console.print(where)
         if not summary.rows and not summary.not_started:  # a mistyped folder or pattern said only "0 takes"
             print(f"warning: {in_dir}: no file matches --pattern {','.join(patterns)} (searched recursively"
                   + (", earlier batches' output folders left out" if summary.earlier else "") + "); nothing cleaned",
