@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Iterable
 
-__all__ = ["plural", "listed", "frame_span"]
+__all__ = ["plural", "listed", "frame_span", "frame_runs"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -33,3 +33,17 @@ def frame_span(first: int, last: int, fps: float | None = None) -> str:
     if first == last:
         return f"frame {first}" + (f" ({first / fps:.2f} s)" if fps else "")
     return f"frames {first}-{last}" + (f" ({first / fps:.2f}-{last / fps:.2f} s)" if fps else "")
+
+
+def frame_runs(runs: Iterable[tuple[int, int]], most: int | None = None) -> str:
+    """Runs of frames, ``(first, last)`` inclusive and in order, each said exactly: ``"frame 252"``,
+    ``"frames 249-251 and 253-257"``, ``"frames 20-26, 32 and 35-36"``; past ``most`` runs a count
+    (``"frames 1-2, 4-5 and 3 more runs"``); ``""`` for none. A line naming the cells a rule kept or changed says
+    their runs so: one span from the first to the last named frames between them it did not."""
+    runs = [(int(a), int(b)) for a, b in runs]
+    if not runs:
+        return ""
+    words = [str(a) if a == b else f"{a}-{b}" for a, b in runs]
+    if most is not None and len(words) > most:
+        words = words[:most] + [plural(len(words) - most, "more run")]
+    return f"{'frame' if words == [str(runs[0][0])] else 'frames'} {listed(words)}"

@@ -13,7 +13,9 @@ from mocapkit import corrupt, metrics, samples
 from mocapkit import rotations as R
 from mocapkit.cleaning import gapfill
 from mocapkit.cleaning.pipeline import CleanResult, clean, clean_path, noise_direction, noise_level, noisy_cells
+from mocapkit.cleaning.runs import true_runs
 from mocapkit.errors import MocapError, MocapFormatError
+from mocapkit.words import frame_runs
 from tests.cleaning.ssa.helpers import twin_of
 from tests.shared import unknown_rig
 
@@ -753,4 +755,14 @@ def test_cells_the_denoise_keeps_as_they_came_stay_so_in_the_take_clean_writes()
     repaired = [int(re.search(r"(\d+) cells? the repair changed", n).group(1)) for n in full.notes
                 if "kept as the repair made" in n]
     assert repaired and repaired[0] >= (kept & full.repaired).sum()  # the rest are the repair's, and said
-    assert int(re.match(r"(\d+) cells kept", said[0]).group(1)) == (noisy & same(full)).sum() + repaired[0]
+    # the cells kept as they came are those bit-identical to the input, each joint's runs said exactly: the line
+    # said "76 cells kept as they came (..., Foot_R frames 20-36)", 7 of them (Foot_R 27-31, 33-34) the repair's
+    came, names = noisy & same(full), bad.skeleton.joint_names
+    assert int(re.match(r"(\d+) cells kept", said[0]).group(1)) == came.sum()
+    runs = ", ".join(f"{names[j]} {frame_runs(true_runs(came[:, j]), most=6)}" for j in np.flatnonzero(came.any(0))[:3])
+    assert f"({runs}" in said[0], said[0]
+    assert not (came & full.repaired).any()  # the repair's cells on their own line, each run as exactly
+    by_repair = next(n for n in full.notes if "kept as the repair made" in n)
+    named = re.search(r"\((\w+) (frames? [^;]+);", by_repair)
+    j = names.index(named.group(1))
+    assert named.group(2) == frame_runs(true_runs(kept[:, j] & full.repaired[:, j])), by_repair

@@ -41,11 +41,11 @@ import numpy as np
 from .. import rotations as R
 from .runs import true_runs
 from ..motion import Motion
-from ..words import frame_span, plural
+from ..words import frame_runs, plural
 
 __all__ = ["midpoint_deviation", "noise_std", "departure_bounds", "jump_bounds", "far_cells",
-           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "guard", "Guarded", "guarded",
-           "guarded_take", "SIGMAS", "MARGIN_DEG", "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps",
+           "held_cells", "displaced_runs", "jump_cells", "beside", "kept_cells", "kept_cells_line", "LINE_RUNS", "guard",
+           "Guarded", "guarded", "guarded_take", "SIGMAS", "MARGIN_DEG", "SPIKE_P", "RUN_FRAMES", "JUMP_APART", "window_steps",
            "window_step_table", "jump_steps", "motion_speed"]
 
 SIGMAS = 4.0  # the bound, in standard deviations of the noise along its widest axis: white noise passes it ~2e-4
@@ -326,17 +326,24 @@ def beside(kept: np.ndarray, far: np.ndarray) -> np.ndarray:
     return out & far & ~kept
 
 
-def _kept_note(kept: np.ndarray, motion: Motion) -> str:
-    names = motion.skeleton.joint_names
+#: the runs of one joint's kept cells :func:`kept_cells_line` names; past them, a count
+LINE_RUNS = 6
+
+
+def kept_cells_line(kept: np.ndarray, names, what: str = "kept as they came") -> str:
+    """The line naming the cells ``kept`` (F, J) bool at the take's frames: their count, ``what`` was done with them
+    and why (the denoiser moved them further than the take's noise explains), and the runs of each of the first
+    three joints (``names``: the take's joint names), each run exactly (:func:`~mocapkit.words.frame_runs`, at most
+    :data:`LINE_RUNS`; one span from the first kept frame to the last would name frames between them that the
+    denoiser or a repair changed). "" for none."""
+    kept = np.asarray(kept, dtype=bool)
+    if not kept.any():
+        return ""
     joints = np.flatnonzero(kept.any(axis=0))
-    said = ", ".join(f"{names[j]} {_frames(np.flatnonzero(kept[:, j]))}" for j in joints[:3])
+    said = ", ".join(f"{names[j]} {frame_runs(true_runs(kept[:, j]), most=LINE_RUNS)}" for j in joints[:3])
     more = f" and {len(joints) - 3} more joints" if len(joints) > 3 else ""
-    return (f"{plural(int(kept.sum()), 'cell')} kept as they came: the denoiser moved them further than the take's noise "
+    return (f"{plural(int(kept.sum()), 'cell')} {what}: the denoiser moved them further than the take's noise "
             f"explains ({said}{more}; frames from 0)")
-
-
-def _frames(f: np.ndarray) -> str:
-    return frame_span(f[0], f[-1])
 
 
 def kept_cells(rotations: np.ndarray, denoised: np.ndarray, judged: np.ndarray,
@@ -405,7 +412,7 @@ class Guarded:
     @property
     def said(self) -> str:
         """The line naming the kept cells (count, joints, frames), "" when none is kept."""
-        return _kept_note(self.kept, self.motion) if self.kept.any() else ""
+        return kept_cells_line(self.kept, self.motion.skeleton.joint_names)
 
     @property
     def lines(self) -> list[str]:

@@ -144,6 +144,7 @@ from .calibration import calibration_poses
 # the record of a cleaning (CleanResult, StepRecord, the .clean.npz), its own module: importable from here as ever
 from .clean_record import (FORMAT, MAX_LINES, CleanResult, StepRecord, capped_lines, clean_path,
                            record_kind_hint)
+from .denoise_guard import kept_cells_line
 from .inbetweens import interpolated_note
 from .measured import keep_measured_in_denoise, kept_note
 from .noise_rate import noise_too_coarse
@@ -383,13 +384,16 @@ def _check(motion: Motion) -> None:
 
 
 def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, zeros,
-             keep: np.ndarray | None = None) -> tuple[np.ndarray, str, list[str], np.ndarray]:
+             keep: np.ndarray | None = None, repaired: np.ndarray | None = None
+             ) -> tuple[np.ndarray, str, list[str], np.ndarray]:
     """``(rotations, method, notes, kept)``: ``cur``'s (F, J, 4) with the ``noisy`` cells (Fs, J) of frames
     ``lo .. hi - 1`` denoised, a filled cell's measured channels kept where its missing ones reach the denoise
     (:func:`~mocapkit.cleaning.measured.keep_measured_in_denoise`: on the whole take, which has the file's rows);
     ``notes`` its lines, each one: the denoiser's own (a fallback, a licence), the cells the guard kept as they came,
     the measured channels kept; ``kept`` (Fs, J) bool those guarded cells, each kept in the result as ``cur`` has it
-    (:func:`~mocapkit.cleaning.denoise_guard.guard`; ``keep`` (Fs, J): kept whatever the guard finds)."""
+    (:func:`~mocapkit.cleaning.denoise_guard.guard`; ``keep`` (Fs, J): kept whatever the guard finds).
+    ``repaired`` (Fs, J): the cells a repair changed in ``cur``; those kept are named on a line of their own, kept as
+    the repair made them, not among the cells kept as they came. Every line names the take's frames."""
     if not noisy.any():
         return np.array(cur.rotations), "nothing (no joint is noisy)", [], np.zeros_like(noisy)
     # the EBF runs only as far as the noisy cells need; the rule and fallback every command applies, and the path
@@ -399,19 +403,16 @@ def _denoise(cur: Motion, lo: int, hi: int, noisy: np.ndarray, models: dict, zer
     rot[lo:hi] = np.where(noisy[..., None], done.motion.rotations, rot[lo:hi])
     # measured channels kept here, on the whole take (its rows are the file's), whatever the frames denoised
     kept_m, kept, stood = keep_measured_in_denoise(cur, dataclasses.replace(cur, rotations=rot))
-    said = [done.note, done.said, kept_note(kept, cur.skeleton.joint_names, "denoise", stood)]
+    names = cur.skeleton.joint_names
+    came = np.zeros((cur.num_frames, len(names)), dtype=bool)  # at the take's frames, calibration poses before lo
+    came[lo:hi] = done.kept
+    by_repair = np.zeros_like(came)
+    if repaired is not None:
+        by_repair[lo:hi] = done.kept & repaired
+    said = [done.note, kept_cells_line(came & ~by_repair, names),
+            kept_cells_line(by_repair, names, "the repair changed are kept as the repair made them, not denoised"),
+            kept_note(kept, names, "denoise", stood)]
     return kept_m.rotations, done.method, [x for x in said if x], done.kept
-
-
-def _repaired_kept_note(cells: np.ndarray, names) -> str:
-    """The line saying that of the cells the denoise kept as they came, ``cells`` (F, J) bool are the repair's: kept
-    as the repair made them (changed, by the repair); "" for none. ``names``: the take's joint names."""
-    n = int(np.sum(cells))
-    if not n:
-        return ""
-    joints = ", ".join(names[j] for j in np.flatnonzero(np.any(cells, axis=0)))
-    return (f"of the cells kept as they came, {plural(n, 'cell')} the repair changed ({joints}) "
-            f"{'is' if n == 1 else 'are'} kept as the repair made {'it' if n == 1 else 'them'}")
 
 
 def _context_label(context) -> str:
@@ -667,9 +668,8 @@ def clean(
             # the cells the first denoise kept as they came are kept again: what the record says is what is written
             # (one the repair changed is kept as the repair made it: denoised alone between kept cells, it was read
             # with no neighbour, and came out further from the truth than the repair put it: Bandai punch at 0.3)
-            rot, _, again, kept_again = _denoise(cur, lo, hi, redo[0], models, redo[1], keep=redo[2])
-            again += [_repaired_kept_note(kept_again & repaired[lo:hi], cur.skeleton.joint_names)]
-            again = [x for x in again if x]
+            rot, _, again, _ = _denoise(cur, lo, hi, redo[0], models, redo[1], keep=redo[2],
+                                        repaired=repaired[lo:hi])
             denoised = differing(cur.rotations, rot)
             cur = cur.with_rotations(rot)
             notes[at:at + len(den_notes)] = again  # the lines of the denoise written, in the first one's place
