@@ -117,6 +117,73 @@ def test_a_c3d_of_300_analog_channels_is_written_back_whole(tmp_path):
     assert np.array_equal(read_c3d(out).positions, take.positions, equal_nan=True)
 
 
+def _scaled_300(path: Path) -> np.ndarray:
+    """A C3D of 300 analog channels (Eb015pr.c3d's 26 points, 100 frames, 2 samples a frame) written by ezc3d,
+    channels 256-300 with their own ANALOG:SCALE2 and OFFSET2 (21 of the 45 offsets negative: a SIGNED file), then
+    the numbers it stores replaced by known whole numbers. Returns those (300, 200)."""
+    import struct
+
+    import ezc3d
+
+    c = ezc3d.c3d(str(EB015PR))
+    n, rng = c["data"]["points"].shape[1], np.random.default_rng(0)
+    new = ezc3d.c3d()
+    for key in ("RATE", "UNITS"):
+        new["parameters"]["POINT"][key]["value"] = c["parameters"]["POINT"][key]["value"]
+    new["parameters"]["POINT"]["LABELS"]["value"] = c["parameters"]["POINT"]["LABELS"]["value"][:n]
+    new["data"]["points"] = c["data"]["points"][:, :, :100]
+    new["parameters"]["ANALOG"]["RATE"]["value"] = [2 * float(c["parameters"]["POINT"]["RATE"]["value"][0])]
+    new["parameters"]["ANALOG"]["LABELS"]["value"] = [f"ch{i}" for i in range(300)]
+    new["data"]["analogs"] = np.zeros((1, 300, 200))
+    analog = new["parameters"]["ANALOG"]
+    for key, typ, value in (("SCALE2", 4, np.round(rng.uniform(0.001, 0.01, 45), 6)),
+                            ("OFFSET2", 2, rng.integers(-100, 100, 45)), ("UNITS2", -1, ["N"] * 45),
+                            ("DESCRIPTIONS2", -1, [f"channel {i}" for i in range(255, 300)])):
+        analog[key] = {"type": typ, "description": "", "is_locked": False, "value": value}
+    new.write(str(path))
+    raw = bytearray(path.read_bytes())
+    start, per = (struct.unpack_from("<H", raw, 16)[0] - 1) * 512, struct.unpack_from("<H", raw, 4)[0]
+    stored = rng.integers(-2000, 2000, size=(300, 200)).astype(np.float64)
+    block = np.frombuffer(raw, "<f4", count=100 * (4 * n + per), offset=start).reshape(100, 4 * n + per).copy()
+    block[:, 4 * n:] = stored.reshape(300, 100, 2).transpose(1, 2, 0).reshape(100, per)
+    raw[start:start + block.nbytes] = block.tobytes()
+    path.write_bytes(bytes(raw))
+    return stored
+
+
+def test_channels_past_255_are_read_with_their_scale2_and_offset2_and_written_back_as_stored(tmp_path):
+    """Channel 256 on are read with ANALOG:SCALE2 and OFFSET2 as the C3D guide has it, ``(stored - offset) * scale
+    * GEN_SCALE``: before, the reader took the scales and offsets from SCALE and OFFSET alone, so the 21 channels
+    of negative OFFSET2 kept ezc3d's reading (its magnitude subtracted), twice the offset off; written back they
+    held those readings under SCALE2 1 and OFFSET2 0, the file's numbers lost. Now the file's numbers, scales,
+    offsets, units, descriptions and labels come back as it stored them."""
+    import struct
+
+    import ezc3d
+
+    src, out = tmp_path / "a300.c3d", tmp_path / "out.c3d"
+    stored = _scaled_300(src)
+    params = ezc3d.c3d(str(src))["parameters"]["ANALOG"]
+
+    def both(key):
+        return np.concatenate([np.ravel(params[key]["value"]), np.ravel(params[key + "2"]["value"])])
+
+    scale, offset, gen = both("SCALE"), both("OFFSET").astype(np.int64), float(params["GEN_SCALE"]["value"][0])
+    assert (offset[255:] < 0).sum() == 21 and (offset[:255] == 0).all()
+    take = read_c3d(src)
+    want = ((stored - offset[:, None]) * scale[:, None] * gen).astype(np.float32).astype(np.float64)
+    assert np.array_equal(take.source.analogs, want)  # before: 21 channels off
+    write_c3d(take, out)
+    back = ezc3d.c3d(str(out))["parameters"]["ANALOG"]
+    for key in ("SCALE", "OFFSET", "UNITS", "DESCRIPTIONS", "LABELS"):
+        assert np.array_equal(np.ravel(back[key + "2"]["value"]), np.ravel(params[key + "2"]["value"])), key
+    raw, n = out.read_bytes(), take.num_markers
+    start, per = (struct.unpack_from("<H", raw, 16)[0] - 1) * 512, struct.unpack_from("<H", raw, 4)[0]
+    block = np.frombuffer(raw, "<f4", count=100 * (4 * n + per), offset=start).reshape(100, 4 * n + per)
+    assert np.array_equal(block[:, 4 * n:].reshape(100, 2, 300).transpose(2, 0, 1).reshape(300, 200), stored)
+    assert np.array_equal(read_c3d(out).source.analogs, want)
+
+
 def test_a_parameter_a_c3d_cannot_state_is_refused_not_written_cut(tmp_path):
     """300 events (EVENT:TIMES 2 x 300, LABELS ... of 300) or a description of 300 characters: a C3D states each
     dimension in one byte, and ezc3d wrote them cut to it, a file it refused to read back and the ``c3d``

@@ -49,10 +49,9 @@ from ..motion import check_fps
 from .c3d_frames import (FRAME_CAP, long_frame_parameters, missing_stored, point_words, put_missing_stored,
                          put_stored_zeros, read_float, read_frames, residuals_and_cameras, rest_of_trial, trial_first,
                          zero_gap_words)
-from .c3d_layout import (header_events, header_layout, held_analogs, integer_data, integer_scale, keep_data_start,
-                         oversized_parameter, parameter_values, put_analogs, put_header_events, put_header_gap,
-                         put_spare_events, spare_events, stored_analogs, text_chunks,
-                         with_offsets)
+from .c3d_layout import (channel_values, header_events, header_layout, held_analogs, integer_data, integer_scale,
+                         keep_data_start, oversized_parameter, put_analogs, put_header_events, put_header_gap,
+                         put_spare_events, spare_events, stored_analogs, text_chunks, with_offsets)
 from .c3d_modelled import modelled_parameters, stated_positions
 from .c3d_parameters import read_parameters
 from .c3d_section import keep_parameters
@@ -187,7 +186,7 @@ def _read_ezc3d(path: Path, raw: bytes):
     analogs = c["data"]["analogs"][0] if a.size else None
     if analogs is not None:  # ezc3d subtracts each ANALOG:OFFSET's magnitude: read again as the C3D guide has it
         analogs = with_offsets(analogs, c["parameters"],
-                               np.abs(parameter_values(c["parameters"], "ANALOG", "OFFSET").astype(np.int64)))
+                               np.abs(channel_values(c["parameters"], "ANALOG", "OFFSET").astype(np.int64)))
     # a trial past the 65,535 frames a header can state: ezc3d read the first 65,535, numpy reads the rest
     rest = rest_of_trial(path, raw, c["parameters"], np.transpose(pts[:3], (2, 1, 0)), analogs, per_frame, scale)
     if rest is not None:

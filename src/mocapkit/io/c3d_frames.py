@@ -21,7 +21,7 @@ import struct
 import numpy as np
 
 from ..errors import MocapFormatError
-from .c3d_layout import analog_offsets, analog_unsigned, parameter_values
+from .c3d_layout import analog_offsets, analog_unsigned, channel_values, parameter_values
 from ..words import plural
 
 __all__ = ["FRAME_CAP", "trial_first", "read_float", "sample_bytes", "stored_values", "point_words", "missing_stored",
@@ -313,7 +313,7 @@ def read_frames(raw: bytes, begin: int, end: int, points: int, analog: int, scal
     samples = stored_values(block[:, 4 * points * size:].reshape(frames, ratio, channels, size), proc, e, size,
                       unsigned=analog_unsigned(parameters))  # (F, ratio, A)
     offsets = analog_offsets(parameters, channels)
-    scales = parameter_values(parameters, "ANALOG", "SCALE")
+    scales = channel_values(parameters, "ANALOG", "SCALE")
     scales = np.ones(channels) if not len(scales) else np.resize(scales.astype(np.float64), channels)
     gen = parameter_values(parameters, "ANALOG", "GEN_SCALE")
     gen = float(gen[0]) if len(gen) else 1.0

@@ -35,7 +35,7 @@ import struct
 
 import numpy as np
 
-__all__ = ["parameter_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
+__all__ = ["parameter_values", "channel_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
            "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
            "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
            "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
@@ -180,6 +180,25 @@ def parameter_values(parameters, group: str, name: str) -> np.ndarray:
     return np.ravel(param.get("value", [])) if isinstance(param, dict) else np.array([])
 
 
+def channel_values(parameters, group: str, name: str) -> np.ndarray:
+    """The values of ``GROUP:NAME`` and of its continuations NAME2, NAME3 ... in ezc3d's parsed layout, in one
+    flattened array: one entry per point or analog channel, however many.
+
+    A parameter's dimension is one byte, so a file of more than 255 analog
+    channels states the scales and offsets of channels 256 on in
+    ANALOG:SCALE2, OFFSET2 ... (C3D User Guide, ANALOG group; written so by
+    :func:`text_chunks`). ezc3d 1.7 reads its samples with them; read without
+    them, channel 256 would be read with no scale and no offset.
+    """
+    parts = [parameter_values(parameters, group, name)]
+    for i in range(2, 100):
+        grp = parameters.get(group, {})
+        if not isinstance(grp, dict) or f"{name}{i}" not in grp:
+            break
+        parts.append(parameter_values(parameters, group, f"{name}{i}"))
+    return np.concatenate(parts) if len(parts) > 1 else parts[0]
+
+
 def analog_unsigned(parameters) -> bool:
     """Whether ANALOG:FORMAT in ezc3d's parsed layout ``parameters`` says UNSIGNED: 16-bit analog samples and
     ANALOG:OFFSET stored unsigned (:func:`offset_values`); signed where it says SIGNED or is absent."""
@@ -210,7 +229,7 @@ def analog_offsets(parameters, channels: int) -> np.ndarray:
     ANALOG:OFFSET's values in ezc3d's parsed layout ``parameters``, read as
     :func:`offset_values` says under the file's ANALOG:FORMAT.
     """
-    offsets = offset_values(parameter_values(parameters, "ANALOG", "OFFSET"), analog_unsigned(parameters))
+    offsets = offset_values(channel_values(parameters, "ANALOG", "OFFSET"), analog_unsigned(parameters))
     out = np.zeros(channels, dtype=np.int64)
     out[: min(len(offsets), channels)] = offsets[:channels]
     return out
@@ -228,7 +247,7 @@ def with_offsets(analogs: np.ndarray, parameters, read_with) -> np.ndarray:
     if not shift.any():
         return analogs
     scales = np.ones(a)
-    found = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
+    found = channel_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
     scales[: len(found)] = found
     gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
     step = scales * (float(gen[0]) if len(gen) else 1.0)
@@ -244,7 +263,7 @@ def _analog_step(parameters, channels: int):
     point_scale = parameter_values(parameters, "POINT", "SCALE")
     if not len(point_scale) or not np.isfinite(float(point_scale[0])):
         return None
-    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)
+    scales = channel_values(parameters, "ANALOG", "SCALE").astype(np.float64)
     gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
     if len(scales) < channels or not len(gen):
         return None
@@ -300,10 +319,10 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
     if found is None:
         return None
     step, off, integer = found
-    scales = parameter_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
+    scales = channel_values(parameters, "ANALOG", "SCALE").astype(np.float64)[:a]
     gen = parameter_values(parameters, "ANALOG", "GEN_SCALE").astype(np.float64)
     written = np.zeros(a, dtype=np.int64)
-    given = parameter_values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
+    given = channel_values(parameters, "ANALOG", "OFFSET").astype(np.int64)[:a]
     written[: len(given)] = given
     exact = analogs / step + off
     whole = np.rint(exact) + 0.0  # no -0.0: a stored 0 that is not the offset is +0 (a 16-bit 0)
