@@ -287,6 +287,48 @@ def test_corrupt_makes_gaps_in_a_marker_file_with_its_ground_truth(tmp_path):
     assert code == 0 and "markers    26" in said and f"{int(mask.sum())} marker samples in" in said
 
 
+def _point_words(path) -> np.ndarray:
+    """(F, M, 5) x, y, z, residual and camera mask of every sample as the ``c3d`` package reads the file."""
+    import c3d
+
+    with open(path, "rb") as fh:
+        return np.array([p.copy() for _, p, _ in c3d.Reader(fh).read_frames()])
+
+
+def test_corrupt_keeps_a_gap_stored_as_zeros_and_a_marker_at_the_origin_as_the_file_has_them(tmp_path):
+    """An exporter that stores an occlusion as (0, 0, 0) with a residual (Qualisys: 03_rolling.c3d's 35,965
+    samples) has it read as a gap; `corrupt --kind gaps` wrote every such sample it did not touch as residual -1,
+    and a marker whose path crosses the origin stays measured there. Only the samples the mask names change."""
+    ms = load_markers(CMU)[:300]
+    p, res = np.array(ms.positions), np.array(ms.residuals)
+    p[100:130, 7], res[100:130, 7] = 0.0, 2.0  # Male:LANK occluded, stored as Qualisys stores it
+    p[:, 9] -= p[150, 9]  # a marker at exactly (0, 0, 0) in frame 150, measured: its neighbours are mm away
+    inp = save_markers(ms.with_positions(p, residuals=res), tmp_path / "in.c3d")
+    take = load_markers(inp)
+    assert take.missing()[100:130, 7].all() and not take.missing()[150, 9] and take.zero_gaps == 30
+    out = tmp_path / "out.c3d"
+    code, _, err = run("corrupt", inp, out, "--kind", "gaps", "--seed", "3")
+    assert code == 0, err
+    mask = np.load(tmp_path / "out.mask.npz")["mask"]
+    a, b = _point_words(inp), _point_words(out)
+    assert 0 < mask.sum() and (b[mask, 3] == -1).all()
+    assert np.array_equal(a[~mask], b[~mask])  # before: the 30 stored zeros' residual 2 written as -1
+    assert not mask[100:130, 7].any() and (b[100:130, 7, :3] == 0).all() and (b[100:130, 7, 3] > 0).all()
+    assert not mask[150, 9] and (b[150, 9, :3] == 0).all() and b[150, 9, 3] >= 0  # measured at the origin
+
+
+def test_corrupt_of_a_qualisys_take_changes_only_the_samples_it_makes_missing(shared_data, tmp_path):
+    """03_rolling.c3d (Qualisys: 23 % of its samples are gaps stored as (0, 0, 0) with a residual): 35,965 samples
+    the corruption did not touch came back as residual -1; now none does."""
+    inp, out = shared_data / "c3d_markers_recovery" / "03_rolling.c3d", tmp_path / "out.c3d"
+    code, _, err = run("corrupt", inp, out, "--kind", "gaps", "--seed", "1")
+    assert code == 0, err
+    mask = np.load(tmp_path / "out.mask.npz")["mask"]
+    a, b = _point_words(inp), _point_words(out)
+    assert (a[..., :3] == 0).all(-1).sum() == 35965 and 0 < mask.sum()
+    assert np.array_equal(a[~mask], b[~mask])
+
+
 def mocapkit_sample(name: str) -> str:
     import mocapkit
 

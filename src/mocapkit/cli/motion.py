@@ -311,7 +311,8 @@ def _corrupt_markers(m, inp: Path, out: Path, mask_path: Path, kind: str, seed: 
     if out.suffix.lower() == ".trc" and not keep_modelled:
         kept = m.quantities() == ""  # the points write_trc keeps
     with removed_on_failure([out, mask_path], overwrite=overwrite, marker=mask_path):  # the ground truth last
-        io.save_markers(bad, out, keep_modelled=keep_modelled, overwrite=overwrite)
+        # a gap the file stored as exact (0, 0, 0) that the corruption did not touch is written as stored
+        io.save_markers(bad, out, keep_modelled=keep_modelled, overwrite=overwrite, stored_zeros=True)
         write_mask(mask_path, mask[:, kept], [lb for lb, k in zip(bad.labels, kept) if k], kind=kind, seed=seed,
                    params=params, markers=True)
     frames = int(mask.any(axis=1).sum())
