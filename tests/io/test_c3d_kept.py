@@ -185,6 +185,29 @@ def test_a_changed_take_keeps_every_parameter_as_read(tmp_path):
     assert len(labels) == 48 and labels[26:30] == ["TR2", "TR3", "RA", "LA"]
 
 
+def test_a_choice_of_markers_keeps_the_label_slots_the_file_has_past_its_points(tmp_path):
+    """Eb015pr.c3d lists 48 point labels for its 26 points (the session's spare names TR2, TR3, RA ... and 10
+    blank slots). A part of its frames kept them; a choice of its markers (``select``: some, or all in another
+    order) was written with its own labels only, 48 -> 25. Now the slots past the file's points follow the
+    markers written, as ezc3d, the ``c3d`` package and read_c3d read them."""
+    import c3d
+    import ezc3d
+
+    take = load_markers(EB015PR)
+    stated = [s.strip() for s in ezc3d.c3d(str(EB015PR))["parameters"]["POINT"]["LABELS"]["value"]]
+    assert len(stated) == 48 and stated[26:30] == ["TR2", "TR3", "RA", "LA"]
+    for chosen in (["LFT1", "RSK2", "PV1"], list(reversed(take.labels))):
+        out = save_markers(take.select(chosen), tmp_path / f"{len(chosen)}.c3d")
+        point = ezc3d.c3d(str(out))["parameters"]["POINT"]
+        assert point["USED"]["value"][0] == len(chosen)
+        assert [s.strip() for s in point["LABELS"]["value"]] == chosen + stated[26:]  # before: chosen alone
+        with open(out, "rb") as fh:
+            assert [s.strip() for s in c3d.Reader(fh).get("POINT:LABELS").string_array] == chosen + stated[26:]
+        back = load_markers(out)
+        assert list(back.labels) == chosen
+        assert np.array_equal(back.positions, take.select(chosen).positions, equal_nan=True)
+
+
 def test_a_part_of_a_qualisys_take_keeps_every_parameter_but_its_length(shared_data, tmp_path):
     """trialT3 4: 03_rolling.c3d's ANALOG:DESCRIPTIONS, SCALE and UNITS lost their descriptions ('Analog
     Descriptions' ...) when written; a part of it differs from the file only in the frames it states."""

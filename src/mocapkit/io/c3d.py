@@ -534,8 +534,13 @@ def _c3d_object(markers: MarkerSet, source: MarkerSource | None, own: bool, firs
     # the values the file states past the points and channels written (its spare labels: Eb015pr.c3d's 48 for 26
     # points; its unused channels' LABELS ... OFFSET: 32 for 16), kept where the points (channels) are the file's
     # own, all of them in its order; ezc3d writes each cut to USED, keep_parameters writes them as ``full`` says
-    whole = same_markers and source is not None and M == len(source.labels or ())
-    full = {("POINT", "LABELS"): (None, labels + ([str(v) for v in _parts(point, "LABELS")][M:] if whole else []))}
+    held = len(source.labels or ()) if source is not None else 0  # the file's points (its POINT:USED)
+    whole = same_markers and source is not None and M == held
+    # the label slots the file keeps past its points, kept too where the markers written are some of the file's
+    # (a choice of them, in any order: markers.select): each label names a point the file has
+    spare = [str(v) for v in _parts(point, "LABELS")][held:] if held and set(markers.labels) <= set(
+        unique_labels(source.labels, held)) else []
+    full = {("POINT", "LABELS"): (None, labels + spare)}
     if whole and "DESCRIPTIONS" in point:  # as the file has them (Eb015pr.c3d: 20 for 26 points)
         full[("POINT", "DESCRIPTIONS")] = dict(point["DESCRIPTIONS"], type=-1), texts
     described = dict(point["DESCRIPTIONS"]) if "DESCRIPTIONS" in point and same_markers else None
