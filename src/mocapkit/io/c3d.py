@@ -248,9 +248,10 @@ def _with_written_case(parameters: dict, written: dict) -> dict:
     return out
 
 
-def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
+def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None, records=None):
     """The pure-Python reader: what :func:`_read_ezc3d` returns, for the file ``path`` (its bytes ``raw``) whose
-    parameters the file names as ``written`` says (:func:`_with_written_case`)."""
+    parameters the file names as ``written`` says (:func:`_with_written_case`); ``records``: its parameter
+    section's records as :func:`~mocapkit.io.c3d_structure.check_structure` walked them (None: walked again)."""
     import c3d
 
     with open(path, "rb") as fh, warnings.catch_warnings():
@@ -276,7 +277,8 @@ def _read_c3d_package(path: Path, written: dict, raw: bytes | None = None):
         fps = _point_rate(path, reader.point_rate)
         # every record of the section, not the package's reading, which stops at the section's stated blocks
         # (c3d.org's Dance.c3d: its ANALOG group's 9 parameters past them) and leaves out a value it cannot shape
-        parameters = _with_written_case(read_parameters(path.read_bytes() if raw is None else raw), written)
+        parameters = _with_written_case(read_parameters(path.read_bytes() if raw is None else raw,
+                                                        None if raw is None else records), written)
         modelled = set()
         for key in _MODELLED:
             p = reader.get(f"POINT:{key}")
@@ -412,7 +414,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
     first_error = None
     got = None
     no_points = None
-    ezc3d_ok, written = check_structure(path, raw)
+    ezc3d_ok, written, records = check_structure(path, raw)
     if ezc3d_ok:
         try:
             got = _read_ezc3d(path, raw)
@@ -424,7 +426,7 @@ def read_c3d(path, zeros_as_gaps: bool | None = None, units: str | None = None) 
             first_error = exc
     if got is None:
         try:
-            got = _read_c3d_package(path, written, raw)
+            got = _read_c3d_package(path, written, raw, records)
         except MocapFormatError as exc:
             raise MocapFormatError(path, no_points) if no_points else exc from None
         except Exception as exc:

@@ -35,6 +35,8 @@ import struct
 
 import numpy as np
 
+from .c3d_records import SectionError, section_records
+
 __all__ = ["parameter_values", "channel_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
            "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
            "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
@@ -352,19 +354,13 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
 def parameter_records(data):
     """Yield ``(id, LABEL, start, at, next)`` for each group (id < 0) and parameter record of the parameter
     section of a C3D ezc3d wrote (Intel byte order), in file order: ``start`` the record's first byte,
-    ``at`` its offset-to-next word, ``next`` that word's value (0 or less on the last record)."""
-    i = (data[0] - 1) * BLOCK + 4
-    while i + 4 <= len(data):
-        nlen, gid = abs(struct.unpack_from("b", data, i)[0]), struct.unpack_from("b", data, i + 1)[0]
-        if nlen == 0 or gid == 0:
-            return
-        label = bytes(data[i + 2:i + 2 + nlen]).decode("latin-1").upper()
-        at = i + 2 + nlen
-        nxt, = struct.unpack_from("<h", data, at)
-        yield gid, label, i, at, nxt
-        if nxt <= 0:
-            return
-        i = at + nxt
+    ``at`` its offset-to-next word, ``next`` that word's value (0 or less on the last record). The records
+    are those :func:`~mocapkit.io.c3d_records.section_records` walks, up to the first it finds malformed."""
+    try:
+        for record in section_records(data, "<"):
+            yield record.gid, record.label, record.start, record.at, record.next
+    except SectionError:
+        return
 
 
 def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:

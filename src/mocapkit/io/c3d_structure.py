@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import MocapFormatError
 from .c3d_frames import read_float, sample_bytes
+from .c3d_records import Record, SectionError, section_records
 from ..words import plural
 
 __all__ = ["check_structure"]
@@ -45,7 +46,7 @@ _PER_CHANNEL = {
 }
 
 
-def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
+def check_structure(path: Path, b: bytes) -> tuple[bool, dict, tuple[Record, ...] | None]:
     """Refuse a C3D whose header or parameter section is malformed, before any C++ reader sees it.
 
     ezc3d (C++) crashes or loops on some malformed parameter sections and
@@ -62,9 +63,12 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     whether ezc3d may read the file: False when a parameter it relies on has
     an unexpected type or no value, or the file holds fewer whole frames than
     the header states (the pure-Python reader copes with those and reads the
-    frames there); and the parameter names as the file writes them, (GROUP,
+    frames there); the parameter names as the file writes them, (GROUP,
     NAME) upper-cased -> (group, name, locked) (a group's own record keyed (GROUP, ""):
-    :func:`_with_written_case`).
+    :func:`_with_written_case`); and the section's records as walked
+    (:func:`~mocapkit.io.c3d_records.section_records`), which
+    :func:`~mocapkit.io.c3d_parameters.read_parameters` reads without walking again (None where the section
+    states no blocks: nothing is checked there).
     """
     n = len(b)
 
@@ -86,71 +90,30 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     nblocks = b[start + 2]
     if start + nblocks * 512 > n:
         fail(f"truncated file: the parameter section claims {nblocks} blocks, the file ends inside it")
-    end = n  # real files understate the block count (c3d.org's Dance, golfswing): records may run on
-    past_end = f"runs past the end of the file ({n} bytes): the file is cut short or its parameter section malformed"
-    section_end = start + nblocks * 512
-    i = start + 4
+    # real files understate the block count (c3d.org's Dance, golfswing): records may run on past it
     groups: dict[int, str] = {}
     typed: list[tuple[int, str, int, int]] = []  # (group id, name, type, data bytes)
     value_at: dict[tuple[int, str], int] = {}  # (group id, name) -> byte offset of its data
     spelled: dict[int, str] = {}  # group id -> its name as written
     names: list[tuple[int, str, bool]] = []  # (group id, parameter name as written, locked)
     locked_groups: dict[int, bool] = {}  # group id -> locked
-    count = 0
-    while nblocks and i + 2 <= end:
-        nlen = abs(struct.unpack_from("b", b, i)[0])
-        gid = struct.unpack_from("b", b, i + 1)[0]
-        if nlen == 0 or gid == 0:
-            break  # end of the parameters
-        name = b[i + 2 : i + 2 + nlen]
-        at = i + 2 + nlen
-        if at + 2 > end:
-            fail(f"parameter record at byte {i} {past_end}")
-        if not all(32 <= c < 127 for c in name):
-            if i >= section_end:
-                break  # past the section's stated blocks, this is data, not a record (c3d.org sgi_int.c3d)
-            fail(f"parameter record at byte {i} has a malformed name {name!r}")
-        nxt = struct.unpack_from(e + "h", b, at)[0]
-        body = at + 2
-        if gid < 0:
-            if gid == -128:
-                fail(f"parameter record at byte {i}: group id 128 is out of range (1 to 127)")
-            if -gid in groups:
-                fail(f"parameter section defines group id {-gid} twice ({groups[-gid]}, {name.decode().upper()})")
-            groups[-gid] = name.decode().upper()
-            spelled[-gid] = name.decode()
-            locked_groups[-gid] = struct.unpack_from("b", b, i)[0] < 0  # a negative name length: locked
-            need = 1
-            if body + 1 <= end:
-                need += b[body]
-        else:
-            if body + 2 > end:
-                fail(f"parameter {name.decode()} {past_end}")
-            typ = struct.unpack_from("b", b, body)[0]
-            ndim = b[body + 1]
-            if typ not in (-1, 1, 2, 4):
-                if i >= section_end:
-                    break
-                fail(f"parameter {name.decode()} has type {typ} (expected -1, 1, 2 or 4)")
-            if ndim > 7 or body + 2 + ndim > end:
-                fail(f"parameter {name.decode()} has {ndim} dimensions")
-            size = abs(typ)
-            for d in b[body + 2 : body + 2 + ndim]:
-                size *= d
-            typed.append((gid, name.decode().upper(), typ, size if typ != -1 or ndim else -1))
-            names.append((gid, name.decode(), struct.unpack_from("b", b, i)[0] < 0))
-            value_at[(gid, name.decode().upper())] = body + 2 + ndim
-            need = 2 + ndim + size + 1
-            if body + need <= end:
-                need += b[body + need - 1]
-        if body + need > end:
-            fail(f"parameter record {name.decode()} {past_end}")
-        count += 1
-        if nxt == 0:
-            break
-        if nxt < 0 or nxt < need + 2:
-            fail(f"parameter record {name.decode()}: the offset to the next record ({nxt}) points backwards or inside it")
-        i = at + nxt
+    records = []
+    try:
+        for record in section_records(b) if nblocks else ():
+            records.append(record)
+            name = record.name.decode()
+            if record.gid < 0:
+                groups[-record.gid] = name.upper()
+                spelled[-record.gid] = name
+                locked_groups[-record.gid] = record.locked
+            else:
+                typed.append((record.gid, name.upper(), record.typ, record.size if record.typ != -1 or record.dims
+                              else -1))
+                names.append((record.gid, name, record.locked))
+                value_at[(record.gid, name.upper())] = record.first
+    except SectionError as exc:
+        fail(str(exc))
+    walked = tuple(records) if nblocks else None
     # Parameters of a group id the section never defines (c3d.org TYPE-2.C3D, TYPE-4.C3D) are
     # ignored, as ezc3d and the c3d package ignore them.
     typed = [t for t in typed if t[0] in groups]
@@ -177,7 +140,7 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     scale = read_float(b, proc, 12)
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
-        return ezc3d_ok, written  # some writers leave the header empty; the parameters decide (the fallback reader)
+        return ezc3d_ok, written, walked  # some writers leave the header empty; the parameters decide (the fallback reader)
     used = _int_parameter(b, e, groups, typed, value_at, "POINT", "USED")
     if analog and (("ANALOG", "RATE") not in have or _int_parameter(b, e, groups, typed, value_at, "ANALOG", "USED") == 0):
         # analog samples in the header's frames but no ANALOG:RATE (or ANALOG:USED 0): ezc3d then takes
@@ -194,7 +157,7 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
     held, partial, frames, declared, who = _frames_held(b, proc, e, groups, typed, value_at, points, analog, first,
                                                         last, data_start, scale)
     if held >= frames:
-        return ezc3d_ok, written
+        return ezc3d_ok, written, walked
     if held == 0:
         need = (data_start - 1) * 512 + frames * (4 * points + analog) * sample_bytes(scale)
         fail(f"truncated file: {plural(frames, 'frame')} of {points} points and {analog} analog samples need "
@@ -207,7 +170,7 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict]:
              f"{'16-bit integers' if sample_bytes(scale) == 2 else 'floats'}); the file is cut short")
     # Whole frames, fewer than stated (ezc3d-testFiles Optotrak.c3d: 29 of 1,149, a file every peer reader reads
     # so), or a header stating more frames than POINT:FRAMES: the pure-Python reader reads the frames there.
-    return False, written
+    return False, written, walked
 
 
 def _frames_held(b, proc, e, groups, typed, value_at, points, analog, first, last, data_start, scale):
