@@ -37,9 +37,9 @@ import numpy as np
 
 from .c3d_records import SectionError, section_records
 
-__all__ = ["parameter_values", "channel_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets", "with_offsets",
-           "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs", "put_header_gap",
-           "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
+__all__ = ["parameter_values", "channel_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets",
+           "with_offsets", "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs",
+           "put_header_gap", "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
            "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
            "oversized_parameter", "parameter_records"]
 

@@ -140,7 +140,8 @@ def check_structure(path: Path, b: bytes) -> tuple[bool, dict, tuple[Record, ...
     scale = read_float(b, proc, 12)
     data_start = struct.unpack_from(e + "H", b, 16)[0]
     if points == 0:
-        return ezc3d_ok, written, walked  # some writers leave the header empty; the parameters decide (the fallback reader)
+        # some writers leave the header empty; the parameters decide (the fallback reader)
+        return ezc3d_ok, written, walked
     used = _int_parameter(b, e, groups, typed, value_at, "POINT", "USED")
     if analog and (("ANALOG", "RATE") not in have or _int_parameter(b, e, groups, typed, value_at, "ANALOG", "USED") == 0):
         # analog samples in the header's frames but no ANALOG:RATE (or ANALOG:USED 0): ezc3d then takes
