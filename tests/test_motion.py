@@ -13,6 +13,7 @@ from mocapkit.motion import (
     MIRROR_MISMATCH_MAX,
     Motion,
     Skeleton,
+    channel_starts,
     concatenate,
     find_joint,
     joint_sides,
@@ -579,3 +580,16 @@ def test_a_pickled_motion_carries_no_euler_angles_of_another_take():
     assert "_euler_seed" in made.__dict__ and not {"_euler", "_euler_seed"} & set(back.__dict__)
     assert len(pickle.dumps(made)) == len(pickle.dumps(dataclasses.replace(made)))
     assert np.array_equal(back.channel_values().view(np.int64), whole.view(np.int64))
+
+
+@pytest.mark.parametrize("clip", ["131_01.bvh", "HDM_bk_sneak2StepsLStart_004_120.amc"])
+def test_channel_starts_slice_each_joints_columns_of_a_real_take(clip):
+    m = mocapkit.load(mocapkit.samples.path(clip))
+    sk = m.skeleton
+    starts = channel_starts([sk.joint_channels(j) for j in range(sk.num_joints)])
+    names, values = m.channel_names(), m.channel_values()
+    assert starts.shape == (sk.num_joints + 1,) and starts[0] == 0 and starts[-1] == values.shape[1]
+    sizes = {int(n) for n in np.diff(starts)}
+    assert len(sizes) > 1  # joints of several channel counts (a 6-channel root, 1-3 dof AMC joints, none)
+    for j, name in enumerate(sk.joint_names):
+        assert names[starts[j]:starts[j + 1]] == [f"{name}.{c}" for c in sk.joint_channels(j)]

@@ -56,6 +56,7 @@ __all__ = [
     "frozen",
     "source_part",
     "with_channels_of",
+    "channel_starts",
     "readonly_view",
     "FPS_RANGE",
     "MAX_JOINTS",
@@ -899,6 +900,13 @@ def _lerp(x: np.ndarray, i0: np.ndarray, i1: np.ndarray, a: np.ndarray, exact: n
     out = x[i0] * (1 - w) + x[i1] * w
     out[exact] = x[i0[exact]]
     return out
+
+
+def channel_starts(channels) -> np.ndarray:
+    """(J + 1,) int: where each joint's columns start in the (F, C) channel matrix, and C last: joint ``j``'s are
+    ``starts[j]:starts[j + 1]``. ``channels``: per joint its channel names in column order (a BVH's ``Zrotation``,
+    an AMC's ``rx``; :meth:`Skeleton.joint_channels`), the layout of :meth:`Motion.channel_values` and the files."""
+    return np.cumsum([0] + [len(c) for c in channels])
 
 
 def with_channels_of(motion: Motion, skeleton: Skeleton) -> Motion:

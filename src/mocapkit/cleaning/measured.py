@@ -37,7 +37,7 @@ from .. import rotations as R
 from ..errors import MocapFormatError
 from ..io.euler_branches import bridged, partly_missing
 from ..io.sources import recall
-from ..motion import Motion
+from ..motion import Motion, channel_starts
 from ..words import frame_span, listed, plural
 
 __all__ = ["keep_measured", "keep_measured_in_repair", "keep_measured_in_denoise", "kept_note", "measured_axes",
@@ -178,10 +178,9 @@ def filled_channels(before: Motion, after: Motion) -> tuple[np.ndarray, list[str
     has = ~after.missing()
     mask = np.zeros(values.shape, dtype=bool)
     names: list[str] = []
-    start = 0
+    starts = channel_starts(channels)
     for j, chans in enumerate(channels):
-        cols = slice(start, start + len(chans))
-        start += len(chans)
+        cols = slice(starts[j], starts[j + 1])
         names.extend(f"{after.skeleton.joint_names[j]}.{c}" for c in chans)
         if len(chans) < 2:
             continue
@@ -231,10 +230,9 @@ def measured_rotations(motion: Motion) -> np.ndarray | None:
         return None
     gone = motion.missing()
     out = np.full(values.shape, np.nan)
-    start = 0
+    starts = channel_starts(names)
     for j, chans in enumerate(names):
-        cols = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
-        start += len(chans)
+        cols = [starts[j] + k for k, c in enumerate(chans) if c.endswith("rotation")]
         if not cols:
             continue
         rows = gone[:, j] & np.isfinite(values[:, cols]).any(axis=1)
@@ -259,10 +257,9 @@ def measured_axes(motion: Motion) -> tuple[np.ndarray | None, np.ndarray | None]
     axis_of = (lambda c: c[0] if c.endswith("position") else "") if bvh else (lambda d: d[1] if d[0] == "t" else "")
     root = np.zeros((F, 3), dtype=bool)
     offsets = None if motion.translations is None else np.zeros((F, motion.num_joints, 3), dtype=bool)
-    start = 0
+    starts = channel_starts(names)
     for j, chans in enumerate(names):
-        axes = [(start + k, "xyz".index(a.lower())) for k, a in enumerate(map(axis_of, chans)) if a]
-        start += len(chans)
+        axes = [(starts[j] + k, "xyz".index(a.lower())) for k, a in enumerate(map(axis_of, chans)) if a]
         into = root if j == 0 else None if offsets is None else offsets[:, j]
         if len(axes) < 2 or into is None:
             continue
@@ -353,11 +350,10 @@ def _partly_nan(after: Motion, values, channels, axis_of, rot: np.ndarray, gone:
     any other. A joint with fewer than two rotation channels has no partly-missing rotation."""
     if values is None or values.shape[0] != after.num_frames or not np.isnan(values).any():
         return
-    start = 0
+    starts = channel_starts(channels)
     for j, names in enumerate(channels):
         axes = [(k, a) for k, a in enumerate(map(axis_of, names)) if a]
-        cols = [start + k for k, _ in axes]
-        start += len(names)
+        cols = [starts[j] + k for k, _ in axes]
         if len(cols) < 2:
             continue
         own = values[:, cols]

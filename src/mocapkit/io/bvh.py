@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import MocapFormatError, SkeletonError
 from .outputs import check_file_path
 from .. import rotations as R
-from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps, source_part
+from ..motion import MAX_JOINTS, Motion, Skeleton, channel_starts, check_fps, source_part
 from . import atomic_write
 from ._numparse import line_of_offset, parse_floats
 from .bvh_hierarchy import (MAX_INDENT, check_bvh_names, depth_first_order, exact_number, fps_from_frame_time,
@@ -659,7 +659,7 @@ def _written(motion: Motion, like):
     if source is not None:  # a filled cell's measured channels: the file's numbers, as the writers keep their text
         values = np.where(measured_text(values, channels, source.values), source.values, values)
     if order != list(range(sk.num_joints)):
-        starts = np.cumsum([0] + [len(c) for c in channels])
+        starts = channel_starts(channels)
         values = values[:, [k for j in order for k in range(starts[j], starts[j + 1])]]
     return out_motion, channels, order, source, values
 
@@ -874,7 +874,7 @@ def _write_like(path: Path, motion: Motion, values: np.ndarray, channels, source
     branch of their unchanged neighbours (:func:`_continuous_rotations`)."""
     sk = motion.skeleton
     F = motion.num_frames
-    starts = np.cumsum([0] + [len(c) for c in channels])
+    starts = channel_starts(channels)
     first = source.layout.columns[0]  # the take's first number on a line: the other roots' numbers are kept as text
     is_rot = np.array([c.endswith("rotation") for cs in channels for c in cs], dtype=bool)
     is_pos = np.array([c.endswith("position") for cs in channels for c in cs], dtype=bool)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import rotations as R
+from ..motion import channel_starts
 
 __all__ = ["MEASURED_TOLERANCE_DEG", "NEAR_SOURCE_DEG", "OFF_AXIS_DEG", "bridged", "bvh_held_rotations", "bvh_written",
            "continuous_rotations", "measured_text", "off_axis_note", "partly_missing", "partial_rotation_joints",
@@ -40,7 +41,7 @@ def continuous_rotations(values: np.ndarray, channels, source=None) -> None:
     numbers of that cell; any other changed cell the triple nearest its nearest written neighbour, chained (a joint
     with no such neighbour starts from the file's first frame). One call per rotation order, all joints with that
     order together."""
-    starts = np.cumsum([0] + [len(c) for c in channels])
+    starts = channel_starts(channels)
     groups: dict[str, tuple[list[int], list[list[int]]]] = {}
     for j, chans in enumerate(channels):
         rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
@@ -101,18 +102,17 @@ def measured_text(values: np.ndarray, channels, own: np.ndarray, kind_of=None, t
     if tolerance is None:
         tolerance = {"rotation": MEASURED_TOLERANCE_DEG, "position": MEASURED_TOLERANCE_DEG}
     keep = np.zeros(values.shape, dtype=bool)
-    start = 0
-    for chans in channels:
+    starts = channel_starts(channels)
+    for j, chans in enumerate(channels):
         kinds = [kind_of(c) for c in chans]
         for kind, tol in tolerance.items():
-            cols = [start + k for k, c in enumerate(kinds) if c == kind]
+            cols = [starts[j] + k for k, c in enumerate(kinds) if c == kind]
             if len(cols) < 2:
                 continue
             part = partly_missing(own[:, cols])
             if part.any():
                 close = np.abs(values[:, cols] - own[:, cols]) <= tol  # False where own is NaN
                 keep[:, cols] = part[:, None] & close
-        start += len(chans)
     return keep
 
 
@@ -154,13 +154,12 @@ def three_axis_groups(skeleton) -> list[tuple[str, np.ndarray]]:
     in joint order): the Euler triples a branch choice applies to (a joint with fewer axes has only whole turns,
     which unwrapping takes care of)."""
     groups: dict[str, list[list[int]]] = {}
-    start = 0
-    for j in range(skeleton.num_joints):
-        chans = skeleton.joint_channels(j)
-        rot = [start + k for k, c in enumerate(chans) if c.endswith("rotation")]
+    channels = [skeleton.joint_channels(j) for j in range(skeleton.num_joints)]
+    starts = channel_starts(channels)
+    for j, chans in enumerate(channels):
+        rot = [k for k, c in enumerate(chans) if c.endswith("rotation")]
         if len(rot) == 3:
-            groups.setdefault("".join(chans[k - start][0] for k in rot), []).append(rot)
-        start += len(chans)
+            groups.setdefault("".join(chans[k][0] for k in rot), []).append([int(starts[j]) + k for k in rot])
     return [(order, np.array(cols, dtype=np.int64)) for order, cols in groups.items()]
 
 
