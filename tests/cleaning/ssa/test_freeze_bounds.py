@@ -15,9 +15,7 @@ import pytest
 
 import mocapkit
 from mocapkit.cleaning import ssa
-from mocapkit import corrupt
 from mocapkit.cleaning.ssa.freeze_bounds import bounded_breaks, bounded_holds, freeze_end_breaks, held_repeats
-from mocapkit.cleaning.whole_take import take_params
 from mocapkit.cleaning.whole_take import detect_take
 
 HELD, BACK = 190, 209  # frame 190 is the sample the channel froze at; 191 .. 208 repeat it
@@ -83,17 +81,12 @@ def test_a_hold_flags_its_repeats_not_the_sample_it_holds():
     assert np.flatnonzero(out[:, 1]).tolist() == [7, 8] and np.flatnonzero(out[:, 2]).tolist() == [1, 2]
 
 
-def test_a_held_toe_s_live_sample_is_not_flagged(shared_data):
+def test_a_held_toe_s_live_sample_is_not_flagged(hdm05_errors):
     """HDM05 bd sneak2StepsLStart 001 with real-style errors (seed 1001): the right toes held over frames 102-126
     at frame 101's value, a hold the similar motion judges (its exit no break of the toes' own); frame 101, the
     clean sample, is not flagged (its repair put it 4.2 deg off the clean take)."""
-    path = shared_data / "hdm05_asfamc" / "HDM_bd_sneak2StepsLStart_001_120.amc"
-    if not path.is_file():
-        pytest.skip("HDM05 sneak2StepsLStart take not in the shared data")
-    ref = mocapkit.load(path)
-    bad, mask, _ = corrupt.real_errors(ref, n_errors=4, seed=1001)
+    ref, bad, mask, det = hdm05_errors("HDM_bd_sneak2StepsLStart_001_120.amc", 1001)
     j = ref.skeleton.index("rtoes")
     assert np.flatnonzero(mask[:, j]).tolist() == list(range(102, 127))
-    det = detect_take(bad, None, params=take_params()).detection
     assert np.flatnonzero(det.holds[:, j]).tolist() == list(range(102, 127))
     assert det.flags[102:127, j].all() and not det.flags[101, j]

@@ -172,15 +172,10 @@ def test_a_partners_run_over_the_same_frames_is_left_with_the_run_left():
     assert pair_left(changed, [(0, 10, 20)], np.array([1, 0, 2])) == []
 
 
-def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_names(shared_data):
+def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_names(hdm05_errors):
     """HDM05 grabHighR (bk, 010) with real-style errors: a flip of the right toes (frames 46-104) had its clean
     side (23-45) flagged, which the repair bridged across the flip: 0 -> 90 degrees off the clean take."""
-    path = shared_data / "hdm05_asfamc" / "HDM_bk_grabHighR_010_120.amc"
-    if not path.is_file():
-        pytest.skip("HDM05 grabHighR take not in the shared data")
-    ref = mocapkit.load(path)
-    bad, _, _ = corrupt.real_errors(ref, n_errors=4, seed=1001)
-    det = detect_take(bad, None, params=take_params()).detection  # clean's detection
+    ref, bad, _, det = hdm05_errors("HDM_bk_grabHighR_010_120.amc", 1001)
     old = ssa.repair(bad, det, None, foot_skate=False, guard=False)
     new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
     j = ref.skeleton.index("rtoes")
@@ -194,18 +189,13 @@ def test_guard_off_repairs_as_before_and_the_guard_changes_only_the_runs_it_name
     assert np.array_equal(new.rotations[kept], old.rotations[kept])  # elsewhere the repair is the same
 
 
-def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
+def test_flags_past_an_error_over_clean_frames_are_given_back(hdm05_errors):
     """HDM05 grabHighR (bd, 001) with real-style errors (seed 1002): the flags of the right forearm run on past the
     error's last frame (204) over frames 205-211, which the input holds as captured and which run on smoothly into
     the take; a neighbour word written there put them 8-20 degrees off the clean take with a step at frame 211."""
-    path = shared_data / "hdm05_asfamc" / "HDM_bd_grabHighR_001_120.amc"
-    if not path.is_file():
-        pytest.skip("HDM05 grabHighR take not in the shared data")
-    ref = mocapkit.load(path)
-    bad, mask, _ = corrupt.real_errors(ref, n_errors=4, seed=1002)
+    ref, bad, mask, det = hdm05_errors("HDM_bd_grabHighR_001_120.amc", 1002)
     j = ref.skeleton.index("rradius")
     assert not mask[205:212, j].any()
-    det = detect_take(bad, None, params=take_params()).detection
     assert det.flags[205:212, j].all()
     new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
     assert np.array_equal(new.rotations[205:212, j], ref.rotations[205:212, j])
@@ -216,20 +206,15 @@ def test_flags_past_an_error_over_clean_frames_are_given_back(shared_data):
     ("HDM_bk_rotateArmsBothBackward1Reps_005_120.amc", 1002, "rwrist", (101, 134)),
     ("HDM_bd_sneak2StepsLStart_001_120.amc", 1001, "rtoes", (102, 127)),
 ])
-def test_a_freeze_s_guess_further_from_its_joined_path_is_given_back(shared_data, take, seed, joint, frames):
+def test_a_freeze_s_guess_further_from_its_joined_path_is_given_back(hdm05_errors, take, seed, joint, frames):
     """HDM05 takes with real-style errors, a freeze among them: bk rotateArmsBothBackward's right wrist held over
     frames 101-133 while it turns 17 deg one way and back (bridged the other way: 9.6 -> 15.8 deg off the clean
     take), bd sneak2StepsLStart's right toes held over 102-126 (written from the take's own next moment, flexing
     where the toes extend: 10.8 -> 12.1 deg). Each freeze is given back as it came, named."""
-    path = shared_data / "hdm05_asfamc" / take
-    if not path.is_file():
-        pytest.skip(f"HDM05 {take} not in the shared data")
-    ref = mocapkit.load(path)
-    bad, mask, _ = corrupt.real_errors(ref, n_errors=4, seed=seed)
+    ref, bad, mask, det = hdm05_errors(take, seed)
     j = ref.skeleton.index(joint)
     a, b = frames
     assert mask[a:b, j].all() and held(bad.rotations[:, j], a, b)
-    det = detect_take(bad, None, params=take_params()).detection
     assert det.flags[a:b, j].all()
     unguarded, _ = ssa.repair_with_left(bad, det, None, foot_skate=False, guard=False)
     off = lambda m: np.degrees(R.geodesic_angle(m.rotations[a:b, j], ref.rotations[a:b, j])).mean()  # noqa: E731
