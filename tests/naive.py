@@ -528,3 +528,106 @@ def naive_local_minima_knn(dist, tgt, k, exclude_center=None, half=7):
                 minima.append((d[t], t))
         out.append(sorted(minima)[:k])
     return out
+
+
+# -- the gap prior's noise estimates and gap ends, one channel and one gap at a time -------------------------------
+
+
+def naive_mad_noise(d) -> float:
+    """The white-noise variance of second differences ``d`` (n,): their median absolute deviation as a standard
+    deviation, squared, over 6."""
+    return (1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 6.0
+
+
+def naive_clean_channels(x, miss, reading, share):
+    """Per channel with a gap, by its own frames: whether the noise of its second differences at the quarter of its
+    moving frames where ``reading`` bends least is at most ``share`` of the mean square ``x - reading``."""
+    clean = np.zeros(x.shape[1], dtype=bool)
+    if len(x) < 8:
+        return clean
+    ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
+    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    bend = np.abs(reading[2:] - 2.0 * reading[1:-1] + reading[:-2])
+    for c in np.flatnonzero(miss.any(axis=0)):
+        ok = ok3[:, c]
+        if ok.sum() < 8:
+            continue
+        r = x[~miss[:, c], c] - reading[~miss[:, c], c]
+        total = float(np.mean(r * r))
+        b, d = bend[ok, c], d2[ok, c]
+        moving = d != 0.0
+        if moving.sum() < 8:
+            clean[c] = not moving.any()
+            continue
+        b, d = b[moving], d[moving]
+        clean[c] = naive_mad_noise(d[b <= np.quantile(b, 0.25)]) <= share * total
+    return clean
+
+
+def naive_raw_weight(x, reading, miss, least):
+    """Per channel: ``1 - noise / (noise + smoothing error)`` from its own observed frames, 0 below ``least``."""
+    w = np.zeros(x.shape[1])
+    ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
+    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
+    for c in range(x.shape[1]):
+        r = (x - reading)[~miss[:, c], c]
+        d = d2[ok3[:, c], c]
+        if len(r) < 8 or len(d) < 8:
+            continue
+        total = float(np.mean(r * r))
+        w[c] = 1.0 if total <= 0.0 else float(np.clip(1.0 - naive_mad_noise(d) / total, 0.0, 1.0))
+    return np.where(w >= least, w, 0.0)
+
+
+def naive_end_slope(x, miss) -> float:
+    """The first difference of the observed samples going away from a gap's end, their median where the first
+    four's two second differences disagree; 0 with fewer than two."""
+    n = 0
+    while n < min(len(x), 4) and not miss[n]:
+        n += 1
+    if n < 2:
+        return 0.0
+    d = np.diff(np.asarray(x[:n], dtype=np.float64))
+    if n < 4:
+        return float(d[0])
+    dd = np.diff(d)
+    if abs(dd[0] - dd[1]) <= 0.5 * (abs(dd[0]) + abs(dd[1])):
+        return float(d[0])
+    return float(np.median(d))
+
+
+def naive_anchor_ends(out, x, reading, miss, fps, clean, w, meets_reading, hermite_s, hermite_max_s):
+    """Each gap of each channel in turn: a ramp by ``w`` between the offsets at its ends, then on a ``clean``
+    channel's gap of at most ``hermite_max_s`` the cubic Hermite curve through its end samples, weighted
+    ``exp(-d / hermite_s)`` at ``d`` seconds from the nearer end. In place."""
+    F = len(x)
+    for c in np.flatnonzero(miss.any(axis=0)):
+        if w[c] <= 0.0:
+            continue
+        edges = np.diff(np.concatenate([[0], miss[:, c].astype(np.int8), [0]]))
+        for s, e in zip(np.flatnonzero(edges == 1).tolist(), np.flatnonzero(edges == -1).tolist()):
+            if meets_reading:
+                f0 = reading[s - 1, c] if s > 0 else None
+                f1 = reading[e, c] if e < F else None
+            elif e - s >= 2:
+                f0, f1 = 2.0 * out[s, c] - out[s + 1, c], 2.0 * out[e - 1, c] - out[e - 2, c]
+            else:
+                f0 = f1 = out[s, c]
+            d0 = x[s - 1, c] - f0 if s > 0 else None
+            d1 = x[e, c] - f1 if e < F else None
+            if d0 is None and d1 is None:
+                continue
+            d0 = d1 if d0 is None else d0
+            d1 = d0 if d1 is None else d1
+            t = (np.arange(s, e) - (s - 1)) / float(e - s + 1)
+            out[s:e, c] += w[c] * ((1.0 - t) * d0 + t * d1)
+            if clean[c] and s > 0 and e < F and e - s <= hermite_max_s * fps:
+                va = -naive_end_slope(x[:s, c][::-1], miss[:s, c][::-1])
+                vb = naive_end_slope(x[e:, c], miss[e:, c])
+                a, b, n = x[s - 1, c], x[e, c], e - s
+                u = (np.arange(n) + 1.0) / (n + 1.0)
+                h = n + 1.0
+                cubic = ((2 * u**3 - 3 * u**2 + 1) * a + (u**3 - 2 * u**2 + u) * h * va + (-2 * u**3 + 3 * u**2) * b
+                         + (u**3 - u**2) * h * vb)
+                k = np.exp(-(np.minimum(np.arange(n) + 1.0, n - np.arange(n)) / fps) / hermite_s)
+                out[s:e, c] = k * cubic + (1.0 - k) * out[s:e, c]

@@ -646,3 +646,47 @@ def test_field_fill_shift_is_the_shifted_copy_it_replaces(u0, u1, turns):
     want = P.field_fill(base - shift, lags, mean, scale, pcols, read, chans, u0, u1)
     got = P.field_fill(base, lags, mean, scale, pcols, read, chans, u0, u1, shift=shift)
     assert np.array_equal(got, want) and np.isfinite(got).all()
+
+
+BANDAI_240 = Path(__file__).parents[1] / "data" / "bandai_dance-short_normal_001_first240.bvh"
+
+
+@pytest.mark.parametrize("clip, noise", [
+    (mocapkit.samples.path("131_01.bvh"), 0.0), (mocapkit.samples.path("131_01.bvh"), 0.5), (BANDAI_240, 0.0),
+    (BANDAI_240, 0.5), (mocapkit.samples.path("HDM_bk_sneak2StepsLStart_004_120.amc"), 0.1),
+])
+def test_the_noise_estimates_and_gap_ends_of_all_channels_at_once_are_each_channel_s_own(clip, noise):
+    """clean_channels, raw_weight and anchor_ends read every channel and gap of a real take together: bit for bit
+    what each channel and gap read alone gives (tests/naive.py), clean and 0.1 / 0.5 noisy, ramped onto the
+    reading and not."""
+    from mocapkit.cleaning.deep.channels import lerp_fill
+    from mocapkit.cleaning.runs import column_runs
+    from mocapkit.motion import channel_starts
+    from tests.naive import naive_anchor_ends, naive_clean_channels, naive_raw_weight
+
+    take = mocapkit.load(clip)
+    if noise:
+        take = corrupt.angular_noise(take, noise, seed=1)[0]
+    gone = corrupt.gaps(take, seed=2)[0].missing()  # (F, J)
+    sk = take.skeleton
+    starts = channel_starts([sk.joint_channels(j) for j in range(sk.num_joints)])
+    miss = np.repeat(gone, np.diff(starts), axis=1)  # a joint's gap over all its channels
+    miss[:5, -1] = True  # a gap from the take's first frame, and one channel missing throughout
+    miss[:, 1] = True
+    x = np.where(miss, np.nan, take.channel_values())
+    fps = take.fps
+    reading = gaussian_filter1d(lerp_fill(x), P.SMOOTH_S * fps, axis=0, mode="nearest")
+    clean = naive_clean_channels(x, miss, reading, P.CLEAN_NOISE_SHARE)
+    assert np.array_equal(P.clean_channels(x, miss, fps), clean)
+    w = naive_raw_weight(x, reading, miss, P.RAW_WEIGHT_MIN)
+    assert P.raw_weight(x, reading, miss).tobytes() == w.tobytes()
+    w = np.where(clean, 1.0, w)
+    for meets in (True, False):
+        fill = reading + 0.3 * np.sin(np.arange(len(x)))[:, None]  # a fill that meets neither the reading nor x
+        want = fill.copy()
+        naive_anchor_ends(want, x, reading, miss, fps, clean, w, meets, P.HERMITE_S, P.HERMITE_MAX_S)
+        P.anchor_ends(fill, x, reading, miss, fps, meets_reading=meets)
+        assert fill.tobytes() == want.tobytes()
+    col, s, e = column_runs(miss)
+    cubic = clean[col] & (s > 0) & (e < len(x)) & (e - s <= P.HERMITE_MAX_S * fps)
+    assert cubic.any() or noise > 0.0  # on a clean take the cubic had gaps to work on

@@ -99,6 +99,7 @@ import numpy as np
 from scipy.interpolate import make_interp_spline
 
 from ..motion import Motion
+from .runs import column_runs, run_cells
 
 __all__ = ["fill_channels", "fill_motion", "METHODS", "nexus_window"]
 
@@ -135,26 +136,6 @@ def _check_context(context_s, fps: float) -> int | None:
     if not (np.isfinite(c) and c > 0):
         raise ValueError(f"context_s must be a positive number of seconds or None, got {context_s!r}")
     return max(1, int(round(c * fps)))
-
-
-def _runs(missing_t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """NaN runs of a (C, F) mask: channel, first missing frame, first frame after (exclusive), each (R,)."""
-    C, F = missing_t.shape
-    padded = np.zeros((C, F + 2), dtype=np.int8)
-    padded[:, 1:-1] = missing_t
-    d = np.diff(padded, axis=1)  # (C, F + 1)
-    ch, start = np.nonzero(d == 1)
-    _, end = np.nonzero(d == -1)  # row-major order: same channel order, starts and ends alternate
-    return ch, start, end
-
-
-def _cells(start: np.ndarray, end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(run index, frame) of every cell of the runs ``[start, end)``, concatenated."""
-    n = end - start
-    run = np.repeat(np.arange(len(n)), n)
-    first = np.cumsum(n) - n
-    frame = start[run] + (np.arange(int(n.sum())) - first[run])
-    return run, frame
 
 
 def fill_channels(values, method: str = "linear", fps: float = 120.0, context_s: float | None = None) -> np.ndarray:
@@ -211,7 +192,7 @@ def fill_channels(values, method: str = "linear", fps: float = 120.0, context_s:
 
     vt = np.ascontiguousarray(arr.T, dtype=np.float64)  # (C, F): one channel per row
     obs_t = ~np.ascontiguousarray(missing.T)
-    ch, start, end = _runs(~obs_t)
+    ch, start, end = column_runs(missing)
 
     lead = (start == 0) & (end < F)
     trail = (end == F) & (start > 0)
@@ -220,7 +201,7 @@ def fill_channels(values, method: str = "linear", fps: float = 120.0, context_s:
     # Edge runs hold the nearest observed value.
     for sel, src in ((lead, end), (trail, start - 1)):
         if sel.any():
-            run, frame = _cells(start[sel], end[sel])
+            run, frame = run_cells(start[sel], end[sel])
             c = ch[sel][run]
             out[frame, c] = vt[c, src[sel][run]]
 
@@ -246,7 +227,7 @@ def fill_channels(values, method: str = "linear", fps: float = 120.0, context_s:
     # Linear: the line through the two neighbours of each run, all runs at once.
     lin = k == 1
     if lin.any():
-        run, frame = _cells(start[lin], end[lin])
+        run, frame = run_cells(start[lin], end[lin])
         c = ch[lin][run]
         a = start[lin][run] - 1
         b = end[lin][run]

@@ -70,9 +70,11 @@ from scipy.ndimage import gaussian_filter1d
 from threadpoolctl import threadpool_limits
 
 from ..markers.gaps import gap_runs
+from ..runs import column_runs, run_cells
 from .blindspot import WEIGHT as CROSS_WEIGHT
 from .blindspot import cross_channel_prediction, noise_share
 from .channels import lerp_fill
+from .column_statistics import column_means, column_medians, column_quantiles
 
 __all__ = ["GapPrior", "fit_gap_prior", "conditional_fill", "pair_band", "lagged", "lag_frames", "local_prior", "local_windows",
            "LAGS_S", "RIDGE", "PRIOR_S", "branch_turns", "branch_lagged", "circular_mean",
@@ -660,25 +662,28 @@ def raw_weight(x: np.ndarray, reading: np.ndarray, miss: np.ndarray) -> np.ndarr
     variance ``6 n``; the median keeps the motion's own curvature out), ``n + s`` from the residuals. A weight
     below :data:`RAW_WEIGHT_MIN` is 0: a noisy channel's fill keeps meeting the reading (on the held-out clips
     at 0.5 noise any smaller weight cost 0.3-1.9 % of the gap error; most channels of a clean take weigh about
-    1). (C,).
+    1). (C,); every channel at once (:mod:`.column_statistics`).
     """
-    C = x.shape[1]
-    w = np.zeros(C)
     ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
     resid = x - reading
-    for c in range(C):
-        r = resid[~miss[:, c], c]
-        d = d2[ok3[:, c], c]
-        if len(r) < 8 or len(d) < 8:
-            continue
-        total = float(np.mean(r * r))
-        if total <= 0.0:
-            w[c] = 1.0
-            continue
-        noise = (1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 6.0
-        w[c] = float(np.clip(1.0 - noise / total, 0.0, 1.0))
+    seen = ~miss
+    judged = (seen.sum(axis=0) >= 8) & (ok3.sum(axis=0) >= 8)
+    total = column_means(resid * resid, seen & judged)
+    noise = _mad_noise(d2, ok3 & judged)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = np.where(total <= 0.0, 1.0, np.clip(1.0 - noise / total, 0.0, 1.0))
+    w = np.where(judged, w, 0.0)
     return np.where(w >= RAW_WEIGHT_MIN, w, 0.0)
+
+
+def _mad_noise(d2: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """(C,) the white-noise variance the second differences (F', C) ``d2`` of each channel over its ``rows``
+    (F', C) bool say: their median absolute deviation, as a standard deviation (x 1.4826), squared, over 6 (the
+    variance of a second difference of white noise of variance ``n`` is ``6 n``)."""
+    spread = np.abs(d2 - column_medians(d2, rows))
+    # a float's power per channel (C of them): numpy's square can differ from it in the last bit
+    return np.array([(1.4826 * m) ** 2 / 6.0 for m in column_medians(spread, rows).tolist()])
 
 
 #: a channel is clean when its noise estimate (:func:`clean_channels`) is at most this share of what the 58 ms
@@ -705,31 +710,30 @@ def clean_channels(x: np.ndarray, miss: np.ndarray, fps: float) -> np.ndarray:
     stretch or padding, are left out, or a noisy channel held for a quarter of its frames read as clean), and a
     channel is clean when that is at most :data:`CLEAN_NOISE_SHARE` of the mean square the Gaussian takes out of
     it. On the Bandai Namco and HDM05 validation takes 81-98 % of the clean channels are clean by it and 0-5 % at
-    Mall's 0.5 noise.
+    Mall's 0.5 noise. Only the channels with a gap are judged (the others False); all of them at once
+    (:mod:`.column_statistics`).
     """
     C = x.shape[1]
     clean = np.zeros(C, dtype=bool)
     if len(x) < 8:
         return clean
+    cols = np.flatnonzero(miss.any(axis=0))
+    x, miss = x[:, cols], miss[:, cols]
     reading = gaussian_filter1d(lerp_fill(x), SMOOTH_S * fps, axis=0, mode="nearest")
     ok3 = ~(miss[2:] | miss[1:-1] | miss[:-2])
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
     bend = np.abs(reading[2:] - 2.0 * reading[1:-1] + reading[:-2])
-    for c in np.flatnonzero(miss.any(axis=0)):
-        ok = ok3[:, c]
-        if ok.sum() < 8:
-            continue
-        r = x[~miss[:, c], c] - reading[~miss[:, c], c]
-        total = float(np.mean(r * r))
-        b, d = bend[ok, c], d2[ok, c]
-        moving = d != 0.0  # frames held exactly (a still stretch, padding) say nothing of the noise elsewhere
-        if moving.sum() < 8:
-            clean[c] = not moving.any()  # a channel held still throughout (but for a few frames) is not noisy
-            continue
-        b, d = b[moving], d[moving]
-        d = d[b <= np.quantile(b, 0.25)]
-        noise = (1.4826 * float(np.median(np.abs(d - np.median(d))))) ** 2 / 6.0
-        clean[c] = noise <= CLEAN_NOISE_SHARE * total
+    judged = ok3.sum(axis=0) >= 8
+    moving = ok3 & (d2 != 0.0)  # frames held exactly (a still stretch, padding) say nothing of the noise elsewhere
+    n_moving = moving.sum(axis=0)
+    still = judged & (n_moving < 8)  # a channel held still throughout (but for a few frames) is not noisy
+    rated = judged & ~still
+    resid = x - reading
+    total = column_means(resid * resid, ~miss & rated)
+    calm = moving & rated
+    calm &= bend <= column_quantiles(bend, calm, 0.25)  # the quarter of frames where the reading bends least
+    with np.errstate(invalid="ignore"):
+        clean[cols] = np.where(still, n_moving == 0, rated & (_mad_noise(d2, calm) <= CLEAN_NOISE_SHARE * total))
     return clean
 
 
@@ -770,40 +774,55 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
     the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
     leans towards the training mean, so on clean motion a short gap's fill wandered off the samples' own course (a
-    still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it.
+    still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it. Every gap of
+    every channel at once (:func:`mocapkit.cleaning.runs.column_runs`).
     """
     F = len(x)
     clean = clean_channels(x, miss, fps)
     w = np.where(clean, 1.0, raw_weight(x, reading, miss))
-    for c in np.flatnonzero(miss.any(axis=0)):
-        if w[c] <= 0.0:
-            continue
-        for s, e in zip(*gap_runs(miss[:, c])):
-            s, e = int(s), int(e)
-            if meets_reading:
-                f0 = reading[s - 1, c] if s > 0 else None
-                f1 = reading[e, c] if e < F else None
-            elif e - s >= 2:  # the fill continued one frame past each end
-                f0, f1 = 2.0 * out[s, c] - out[s + 1, c], 2.0 * out[e - 1, c] - out[e - 2, c]
-            else:
-                f0 = f1 = out[s, c]
-            d0 = x[s - 1, c] - f0 if s > 0 else None
-            d1 = x[e, c] - f1 if e < F else None
-            if d0 is None and d1 is None:
-                continue
-            d0 = d1 if d0 is None else d0
-            d1 = d0 if d1 is None else d1
-            t = (np.arange(s, e) - (s - 1)) / float(e - s + 1)
-            out[s:e, c] += w[c] * ((1.0 - t) * d0 + t * d1)
-            if clean[c] and s > 0 and e < F and e - s <= HERMITE_MAX_S * fps:
-                v0 = end_slope(x[:s, c][::-1], miss[:s, c][::-1])
-                v1 = end_slope(x[e:, c], miss[e:, c])
-                out[s:e, c] = hermite_blend(out[s:e, c], x[s - 1, c], x[e, c], -v0, v1, fps)
+    col, s, e = column_runs(miss)
+    keep = (w[col] > 0.0) & ((s > 0) | (e < F))  # a channel missing throughout has no end to meet
+    col, s, e = col[keep], s[keep], e[keep]
+    before, after = np.maximum(s - 1, 0), np.minimum(e, F - 1)  # the samples either side (where there is one)
+    if meets_reading:
+        f0, f1 = reading[before, col], reading[after, col]
+    else:  # the fill continued one frame past each end; a gap of one frame: its fill
+        wide = e - s >= 2
+        f0 = np.where(wide, 2.0 * out[s, col] - out[np.minimum(s + 1, F - 1), col], out[s, col])
+        f1 = np.where(wide, 2.0 * out[e - 1, col] - out[np.maximum(e - 2, 0), col], out[s, col])
+    with np.errstate(invalid="ignore"):
+        d0, d1 = x[before, col] - f0, x[after, col] - f1
+    d0, d1 = np.where(s > 0, d0, d1), np.where(e < F, d1, d0)  # one side only: its offset holds
+    run, frame = run_cells(s, e)
+    c = col[run]
+    t = (frame - s[run] + 1) / (e - s + 1.0)[run]
+    out[frame, c] += w[c] * ((1.0 - t) * d0[run] + t * d1[run])
+    cubic = clean[col] & (s > 0) & (e < F) & (e - s <= HERMITE_MAX_S * fps)
+    if not cubic.any():
+        return
+    col, s, e = col[cubic], s[cubic], e[cubic]
+    v0 = end_slope(*_outwards(x, miss, s - 1, col, -1))
+    v1 = end_slope(*_outwards(x, miss, e, col, 1))
+    run, frame = run_cells(s, e)
+    c = col[run]
+    n = (e - s)[run]
+    out[frame, c] = _hermite(out[frame, c], frame - s[run], n, x[s - 1, col][run], x[e, col][run], -v0[run],
+                             v1[run], fps)
 
 
-def end_slope(x: np.ndarray, miss: np.ndarray) -> float:
-    """The per-frame slope of a channel going away from a gap's end: ``x`` (n,) the samples from the end outwards
-    (``x[0]`` the sample next to the gap), ``miss`` (n,) which are missing.
+def _outwards(x: np.ndarray, miss: np.ndarray, first: np.ndarray, col: np.ndarray, step: int):
+    """(G, 4) the samples of channels ``col`` (G,) from frames ``first`` (G,) outwards by ``step`` (-1: towards
+    the take's start) and (G, 4) which are missing (off the take: missing), for :func:`end_slope`."""
+    at = first[:, None] + step * np.arange(4)
+    off = (at < 0) | (at >= len(x))
+    at = np.clip(at, 0, len(x) - 1)
+    return x[at, col[:, None]], off | miss[at, col[:, None]]
+
+
+def end_slope(x: np.ndarray, miss: np.ndarray) -> float | np.ndarray:
+    """The per-frame slope of a channel going away from a gap's end: ``x`` (..., n) the samples from the end
+    outwards (``x[..., 0]`` the sample next to the gap), ``miss`` (..., n) which are missing; a float for one end,
+    (...) for many.
 
     The first one-frame difference ``x[1] - x[0]``, unless the first four observed samples disagree: their two
     second differences change by more than half their size, as a glitched sample makes them (a smooth motion bends
@@ -812,18 +831,18 @@ def end_slope(x: np.ndarray, miss: np.ndarray) -> float:
     on clean motion at 30 fps the median lags the end's slope. With two or three observed samples, the first
     difference; else 0.
     """
-    n = 0
-    while n < min(len(x), 4) and not miss[n]:
-        n += 1
-    if n < 2:
-        return 0.0
-    d = np.diff(np.asarray(x[:n], dtype=np.float64))
-    if n < 4:
-        return float(d[0])
-    dd = np.diff(d)
-    if abs(dd[0] - dd[1]) <= 0.5 * (abs(dd[0]) + abs(dd[1])):
-        return float(d[0])
-    return float(np.median(d))
+    x = np.asarray(x, dtype=np.float64)[..., :4]
+    gone = np.asarray(miss, dtype=bool)[..., :4]
+    pad = [(0, 0)] * (x.ndim - 1) + [(0, 4 - x.shape[-1])]
+    x, gone = np.pad(x, pad, constant_values=np.nan), np.pad(gone, pad, constant_values=True)
+    n = np.cumprod(~gone, axis=-1).sum(axis=-1)  # the observed samples next to the end, up to 4
+    with np.errstate(invalid="ignore"):
+        d = np.diff(x, axis=-1)
+        dd = np.diff(d, axis=-1)
+        steady = np.abs(dd[..., 0] - dd[..., 1]) <= 0.5 * (np.abs(dd[..., 0]) + np.abs(dd[..., 1]))
+    median = np.where(np.isnan(d).any(axis=-1), np.nan, np.sort(d, axis=-1)[..., 1])
+    slope = np.where(n < 2, 0.0, np.where((n < 4) | steady, d[..., 0], median))
+    return float(slope) if slope.ndim == 0 else slope
 
 
 def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fps: float) -> np.ndarray:
@@ -831,11 +850,17 @@ def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fp
     curve through them with slopes ``va`` and ``vb`` (per frame): the curve's weight is ``exp(-d / HERMITE_S)`` at
     ``d`` seconds from the nearer end (:func:`anchor_ends`)."""
     n = len(fill)
-    u = (np.arange(n) + 1.0) / (n + 1.0)  # from a (0) to b (1)
+    return _hermite(fill, np.arange(n), n, a, b, va, vb, fps)
+
+
+def _hermite(fill, i, n, a, b, va, vb, fps: float) -> np.ndarray:
+    """:func:`hermite_blend` frame by frame: frame ``i`` of a gap of ``n`` frames, each argument one number or one
+    per frame (the gaps of a take together)."""
+    u = (i + 1.0) / (n + 1.0)  # from a (0) to b (1)
     h = n + 1.0  # frames between a and b
     cubic = ((2 * u**3 - 3 * u**2 + 1) * a + (u**3 - 2 * u**2 + u) * h * va + (-2 * u**3 + 3 * u**2) * b
              + (u**3 - u**2) * h * vb)
-    d = np.minimum(np.arange(n) + 1.0, n - np.arange(n)) / fps
+    d = np.minimum(i + 1.0, n - i) / fps
     k = np.exp(-d / HERMITE_S)
     return k * cubic + (1.0 - k) * fill
 
