@@ -79,7 +79,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import rotations as R
-from ..motion import Motion
+from ..motion import Motion, channel_starts
 from ..words import frame_span
 from .ik import contact_segments
 from .take_breaks import cuts, root_events
@@ -189,11 +189,9 @@ def find_zeros(motion: Motion, values: np.ndarray | None = None) -> tuple[np.nda
     if values is None:
         values = motion.channel_values()
     zero = np.abs(values) <= ZERO_TOL  # NaN (missing) is not 0
-    cols, col = [], 0
-    for j in range(J):
-        chans = sk.joint_channels(j)
-        cols.append([(col + k, c) for k, c in enumerate(chans)])
-        col += len(chans)
+    channels = [sk.joint_channels(j) for j in range(J)]
+    starts = channel_starts(channels)
+    cols = [[(int(starts[j]) + k, c) for k, c in enumerate(chans)] for j, chans in enumerate(channels)]
     has = np.array([bool(c) for c in cols])
     runs: list[ZeroRun] = []
     if zero.shape[1]:

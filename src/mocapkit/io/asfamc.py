@@ -43,7 +43,7 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import MocapFormatError, SkeletonError
-from ..motion import MAX_JOINTS, Motion, Skeleton, check_fps
+from ..motion import MAX_JOINTS, Motion, Skeleton, channel_starts, check_fps
 from ..words import plural
 from .sources import bom_length, remember
 
@@ -736,7 +736,7 @@ def _parse_amc_body(path, data: bytes, body_at: int, first_line: int, skeleton: 
     n = len(data)
     J = skeleton.num_joints
     ndof = np.array([len(d) for d in layout.dofs], dtype=np.int64)
-    col0 = np.concatenate([[0], np.cumsum(ndof)])
+    col0 = channel_starts(layout.dofs)
     state = _Frames(tables=[], open_seen=np.zeros(J, dtype=bool))
     pos, line = body_at, first_line
     any_line = False

@@ -44,6 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import rotations as R
+from ...motion import channel_starts
 from ...words import frame_span
 
 __all__ = ["FLIP_DEG", "AXIS_COS", "AGREE_DEG", "STEP_OK_DEG", "LIMIT_TOL_DEG", "LASTS_TO_END", "Flip", "left_from_note", "turn_steps", "point_steps", "turned_back"]
@@ -321,14 +322,14 @@ def _check(motion, q: np.ndarray, new_q: np.ndarray, joints: list[int], a: int, 
     if sk.limits is None:
         return ""
     orig = part.channel_values()
-    col = 0
+    starts = channel_starts([sk.joint_channels(j) for j in range(sk.num_joints)])
     inside = slice(1 if a >= 1 else 0, (hi - lo) - 1 if b + 1 < F else hi - lo)
     for j in range(sk.num_joints):
         chans = sk.joint_channels(j)
         rot = [i for i, c in enumerate(chans) if c.endswith("rotation")]
         if j in joints and len(rot) == 1 and sk.limits[j]:
             lim_lo, lim_hi = sk.limits[j][0]
-            c = col + rot[0]
+            c = int(starts[j]) + rot[0]
 
             def past(v):  # degrees past the limits
                 return np.maximum(lim_lo - v, v - lim_hi).clip(0)
@@ -338,7 +339,6 @@ def _check(motion, q: np.ndarray, new_q: np.ndarray, joints: list[int], a: int, 
             if past(v).max() > beside + LIMIT_TOL_DEG:
                 return (f"{sk.joint_names[j]}.{chans[rot[0]]} would read {v[np.argmax(past(v))]:.0f} deg against "
                         f"its limits {lim_lo:g}..{lim_hi:g}")
-        col += len(chans)
     return ""
 
 
