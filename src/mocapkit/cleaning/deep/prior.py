@@ -768,13 +768,13 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     (no step at the gap's ends), on a noisy one it keeps meeting their reading. That is for a fill that meets the
     reading at the gap's ends (a ramped one: ``meets_reading``). Otherwise the offsets are taken from the fill's
     own ends, continued one frame by its first and last differences: a field that reads the channel's own samples
-    near the gap (a prior without the ramp) ends where it ends, not on the reading, and the first version left a
-    step of up to 2.5 deg at each end of a clean 30 fps take's gaps. Then, on a clean channel, a gap
+    near the gap (a prior without the ramp) ends where it ends, not on the reading, and taking the offsets from the
+    reading there would leave a step (up to 2.5 deg at each end of a clean 30 fps take's gaps). Then, on a clean channel, a gap
     of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite curve through its
     end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
     the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
-    leans towards the training mean, so on clean motion a short gap's fill wandered off the samples' own course (a
-    still foot filled 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it. Every gap of
+    leans towards the training mean, so on clean motion a short gap's fill alone wanders off the samples' own course
+    (a still foot 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it. Every gap of
     every channel at once (:func:`mocapkit.cleaning.runs.column_runs`).
     """
     F = len(x)
