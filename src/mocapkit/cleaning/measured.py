@@ -223,20 +223,34 @@ def measured_rotations(motion: Motion) -> np.ndarray | None:
     ``Xrotation`` and ``Yrotation``, or a whole rotation beside a ``nan`` position), NaN in every other entry;
     None where there is no such number. What a fill conditions its estimate of those cells on
     (:func:`mocapkit.cleaning.deep.fill_gaps`), so that its rotation agrees with the measured angles
-    (:func:`keep_measured` then writes them as the file does). An AMC take's dofs are not read here (None)."""
+    (:func:`keep_measured` then writes them as the file does). An ASF/AMC take's rotation dofs alike (an
+    ``lfoot`` with ``rx rz``, its ``rz`` written ``nan``): the AMC lists a bone's dofs in the ASF's order (``rx ry
+    rz``), :meth:`Motion.channel_values` its channels in the skeleton's (``Zrotation Yrotation Xrotation``, the same
+    angles), so each dof goes to the column of its axis. A cell counts where the file gives the joint's numbers
+    partly ``nan`` (:func:`~mocapkit.io.euler_branches.partly_missing`) alone: where it gives them whole and
+    ``motion`` lacks the cell (an .npz of a take with gaps cut into it, ``mocapkit corrupt take.bvh g.npz``, keeps the
+    source file's numbers), they are the numbers that were taken out, not a measurement the gap left."""
     values, names, bvh = _file_numbers(motion, motion.source_file)
     F = motion.num_frames
-    if not bvh or values is None or values.shape[0] != F or len(names) != motion.num_joints:
+    if values is None or values.shape[0] != F or len(names) != motion.num_joints:
         return None
     gone = motion.missing()
-    out = np.full(values.shape, np.nan)
-    starts = channel_starts(names)
+    sk = motion.skeleton
+    own_channels = [sk.joint_channels(j) for j in range(sk.num_joints)]
+    starts, at = channel_starts(names), channel_starts(own_channels)
+    out = np.full((F, at[-1]), np.nan)
     for j, chans in enumerate(names):
-        cols = [starts[j] + k for k, c in enumerate(chans) if c.endswith("rotation")]
-        if not cols:
+        own = own_channels[j]
+        rows = gone[:, j] & partly_missing(values[:, starts[j]:starts[j + 1]])
+        if bvh:
+            pairs = [(starts[j] + k, at[j] + k) for k, c in enumerate(chans) if c.endswith("rotation")]
+        else:  # dof "rx" -> channel "Xrotation" of the same joint
+            pairs = [(starts[j] + k, at[j] + own.index(f"{d[1].upper()}rotation")) for k, d in enumerate(chans)
+                     if d[0] == "r" and f"{d[1].upper()}rotation" in own]
+        if not pairs:
             continue
-        rows = gone[:, j] & np.isfinite(values[:, cols]).any(axis=1)
-        out[np.ix_(rows, cols)] = values[np.ix_(rows, cols)]
+        src, dst = (list(c) for c in zip(*pairs))
+        out[np.ix_(rows, dst)] = values[np.ix_(rows, src)]
     return out if np.isfinite(out).any() else None
 
 
