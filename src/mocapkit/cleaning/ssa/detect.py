@@ -48,6 +48,7 @@ from .recurring_peaks import recurring_breaks
 from .reversals import reversed_runs
 from .smooth_turns import smooth_turn_breaks
 from .still_positions import position_kept_breaks
+from .swap_exchange import joined_swaps
 from .turning_holds import without_turning_points
 from .texture import Analysis, facing_aligned, frame_words, prepare, upsample_quaternions
 
@@ -105,8 +106,9 @@ class Detection:
     threshold`` alone when the detection was made with ``confirm=False``; jumps : bool (F, J) the analysed joints'
     :func:`discontinuities` over their own motion's level (less the turns their chain undoes, :func:`~mocapkit.cleaning.ssa.cues.uncompensated_breaks`, and at 24-30 fps the breaks their speed beside them explains, :func:`~mocapkit.cleaning.ssa.cues.motion_explained`); holds, swaps, offsets : bool (F, J) their
     :func:`held_joints` (a hold that holds a frozen channel cut to its frozen cells,
-    :func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_holds`), :func:`side_swaps` and :func:`transient_offsets`
-    (flagged with confirmation at any threshold); agreement : float (F, J)
+    :func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_holds`), :func:`side_swaps` (with the swaps whose
+    exchange back joins the take, :func:`~mocapkit.cleaning.ssa.swap_exchange.joined_swaps`) and
+    :func:`transient_offsets` (flagged with confirmation at any threshold); agreement : float (F, J)
     the median angle in radians of the other joints of the group that judges
     the cell from that group's mean texture
     (:func:`~mocapkit.cleaning.ssa.drifts.group_agreement`), consistency : float (F, J) the joint's
@@ -715,8 +717,12 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     # a channel repeated bit for bit while the body moves, ending in a break, needs no similar motion to judge it
     frozen = frozen_channels(q, own, analysed, motion.fps)
     holds = bounded_holds(holds, frozen)  # a hold that holds a freeze: its repeats, not the sample it froze at
+    mirrored = mirrored_rotations(motion)
     swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
-                                 rotations=q, mirrored=mirrored_rotations(motion))
+                                 rotations=q, mirrored=mirrored)
+    # a swap whose steps its joints' own fast motion hides, proved by the exchange back joining the take
+    swaps |= joined_swaps(q, mirrored, resid, mirror_pairs(sk.joint_names), sk.parents, motion.fps,
+                          p.swap_jump_deg, p.swap_max_s, analysed, swaps)
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
         p.offset_min_deg, analysed, sk.joint_names, sk.parents, digression,

@@ -273,7 +273,8 @@ def repair_with_left(
         swapped &= ~np.asarray(detection.reversals, dtype=bool)
     if swapped.any():
         values, exchanged = swap_exchanges(motion.rotations, mirrored_rotations(motion), swapped,
-                                           mirror_pairs(motion.skeleton.joint_names))
+                                           mirror_pairs(motion.skeleton.joint_names),
+                                           parents=motion.skeleton.parents)
         base[exchanged] = values[exchanged]
         undone |= exchanged
     # a swap flagged on one side only: its partner's mirrored values fit the frames beside the run (swap_exchange.py)

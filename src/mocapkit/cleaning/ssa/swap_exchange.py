@@ -12,7 +12,13 @@ on PyMO's AV_8Walk_Meredith (HumanIK rig, inches) a swap of both arms over frame
 
 A run is exchanged only where the exchange joins the take: for both joints, at each end of the run that is
 not the take's end, the step between the exchanged value and the frame beside the run is under ``ratio``
-times the step the input makes there (the swap's own break). Elsewhere the run is left to the neighbour words.
+times the step the input makes there (the swap's own break), or the angular acceleration at the join, of each
+joint's value and of its limb's orientation in the body, under ``ratio`` times the input's
+(:func:`exchange_joins`). Elsewhere the run is left to the neighbour words.
+
+The same join finds the swaps whose breaks the limbs' own fast motion hides (:func:`joined_swaps`, part of
+detection): at 30 fps a running leg's steps reach what a swap's do, but exchanged back a swapped pair continues
+both limbs' paths at both ends, and a real move, exchanged, leaves them.
 
 A pair that detection did not name a swap is tried the same way where the repair guard leaves one side and its
 partner digresses over the same frames (:func:`pair_exchange`): a swap the detection took for two digressions
@@ -40,8 +46,8 @@ import numpy as np
 from ... import rotations as R
 from ..runs import true_runs
 
-__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "pair_exchange", "parent_orientations", "partner_swaps",
-           "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
+__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "joined_swaps", "pair_exchange", "parent_orientations",
+           "partner_swaps", "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -63,7 +69,7 @@ def _joins(q: np.ndarray, new: np.ndarray, a: int, b: int, ratio: float) -> bool
 
 
 def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np.ndarray, partner,
-                   ratio: float = SWAP_JOIN_RATIO) -> tuple[np.ndarray, np.ndarray]:
+                   ratio: float = SWAP_JOIN_RATIO, parents=None) -> tuple[np.ndarray, np.ndarray]:
     """``(values, cells)``: the swap runs put back by exchanging the two sides with their mirrored rotations.
 
     ``rotations`` (F, J, 4) unit quaternions of the take; ``mirrored`` (F, J, 4) the take's mirror image on its
@@ -71,8 +77,10 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
     nothing exchanged); ``swaps`` (F, J) bool the swap cells to repair (the detection's flagged swaps, less the
     time-reversed stretches); ``partner`` (J,) int each joint's left/right partner
     (:func:`~mocapkit.motion.mirror_pairs`). A run of frames both joints of a pair have flagged is exchanged
-    when the exchange joins the take at both its ends (module docstring). ``values`` (F, J, 4) ``rotations``
-    with ``mirrored`` written into ``cells`` (F, J) bool, the cells exchanged.
+    when the exchange joins the take at both its ends (module docstring), or, with ``parents`` (J,) int (the
+    skeleton's), where both limbs exchanged join the take as :func:`joined_swaps` found it (:func:`exchange_joins`,
+    the pairs nearer the root first, on the take with the runs exchanged so far). ``values`` (F, J, 4)
+    ``rotations`` with ``mirrored`` written into ``cells`` (F, J) bool, the cells exchanged.
     """
     q = np.asarray(rotations, dtype=np.float64)
     swaps = np.asarray(swaps, dtype=bool)
@@ -85,14 +93,19 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
         raise ValueError(f"need rotations and mirrored (F, J, 4) and swaps (F, J), got {q.shape}, {mirrored.shape} "
                          f"and {swaps.shape}")
     partner = np.asarray(partner, dtype=np.int64)
-    for j in np.flatnonzero(swaps.any(axis=0)):
+    depth = np.zeros(len(partner), dtype=np.int64)
+    if parents is not None:
+        for k in range(1, len(partner)):
+            depth[k] = depth[parents[k]] + 1
+    for j in sorted(np.flatnonzero(swaps.any(axis=0)), key=lambda k: (depth[k], k)):
         p = int(partner[j])
         if p <= j:
             continue
         for a, b in true_runs(swaps[:, j] & swaps[:, p]):
-            if all(_joins(q[:, k], mirrored[a : b + 1, k], a, b, ratio) for k in (j, p)):
+            if all(_joins(q[:, k], mirrored[a : b + 1, k], a, b, ratio) for k in (j, p)) \
+                    or parents is not None and exchange_joins(values, mirrored, (j, p), a, b + 1, parents, ratio):
                 cells[a : b + 1, [j, p]] = True
-    values[cells] = mirrored[cells]
+                values[a : b + 1, [j, p]] = mirrored[a : b + 1, [j, p]]
     return values, cells
 
 
@@ -136,6 +149,122 @@ def pair_exchange(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
         if ok:
             return a, b
     return None
+
+
+def exchange_joins(q: np.ndarray, mirrored: np.ndarray, joints, start: int, end: int, parents=None,
+                   ratio: float = SWAP_JOIN_RATIO, frames: np.ndarray | None = None) -> bool:
+    """Whether ``joints`` exchanged over frames ``start .. end - 1`` (each taking its mirrored rotation) join the
+    take at each end of the run that is not the take's: the angular acceleration at the join
+    (:func:`~mocapkit.cleaning.ssa.guard.end_roughness`) under ``ratio`` times the input's there, for every joint.
+    With ``parents`` (J,) int the joins of each limb's orientation in the body (:func:`parent_orientations` times
+    the joint's value, as :func:`partner_swaps` judges them) must pass as well: a swap exchanged back continues
+    both the joint's channels and its limb's path. On the values alone a twist handed between the joints of one
+    arm passes (the CMU backflip on LaFAN1's rig at 30 fps, its hands over frames 33-40); in the body alone a
+    toe whose foot turns fast passes, the foot's turn swamping the toe's (CMU 131_02 at 12 fps, its toes over
+    frames 68-79: 8.7 against 49.7 deg/frame^2 in the body, more than half the input's on their values), both
+    clean takes. ``frames`` (F, J, 4): the parent orientations of ``q`` made already
+    (:func:`parent_orientations`), used instead. ``q``, ``mirrored`` (F, J, 4) as :func:`swap_exchanges`. Only
+    the frames the joins read are turned (two beside each end)."""
+    from .guard import angular_acceleration, end_roughness
+
+    F = len(q)
+    if start <= 0 and end >= F:
+        return False
+    lo, hi = max(start - 2, 0), min(end + 2, F)  # every second difference the two joins read, as in the whole take
+    joints = list(joints)
+    own, new = q[lo:hi, joints], mirrored[lo:hi, joints]
+    judged = [(own, new)]  # each joint's value: the channels a swap exchanges
+    if frames is None and parents is not None:
+        frames = parent_orientations(q, parents)
+    if frames is not None:  # and its limb's path: the chain above it turns the limb too
+        body = frames[lo:hi, joints]
+        judged.append((R.quaternion_multiply(body, own), R.quaternion_multiply(body, new)))
+    a, b, n = start - lo, end - lo, hi - lo
+    for own, new in judged:
+        for i in range(len(joints)):
+            track = own[:, i].copy()
+            track[a:b] = new[a:b, i]
+            before = end_roughness(angular_acceleration(own[:, i]), a, b)
+            after = end_roughness(angular_acceleration(track), a, b)
+            if not all(o < ratio * x for o, x, inside in zip(after, before, (a > 0, b < n)) if inside):
+                return False
+    return True
+
+
+def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.ndarray, partner, parents,
+                 fps: float, jump_deg: float, max_s: float, joints=None, swaps: np.ndarray | None = None,
+                 ratio: float = SWAP_JOIN_RATIO) -> np.ndarray:
+    """(F, J) bool: left/right swaps whose two steps break both joints of a pair by ``jump_deg`` or more and
+    whose exchange back joins the take at both ends.
+
+    :func:`~mocapkit.cleaning.ssa.cues.side_swaps` asks each break to stand out from the joint's own motion
+    (:func:`~mocapkit.cleaning.ssa.cues.own_breaks`) and to step onto the partner's mirror image from the frame
+    before: at 30 fps a running leg's midpoint residuals reach the cap of 33 deg, and its partner moves 15-25
+    deg a frame, so a shin swap's steps, 20-40 deg, stand out from nothing (Bandai Namco run_normal_016 with
+    ``corrupt.real_errors(kinds=("swap",), seed=0)``: the shins swapped over frames 64-78 break 32 and 39 deg
+    into the run, 25 and 28 out of it, under levels of 34 and 38; neither side was named a swap). A label
+    exchange is no motion, though, and the exchange back proves it: two break events of both joints within
+    ``max_s`` seconds, where both limbs exchanged over the frames between join the take with an angular
+    acceleration under ``ratio`` times the input's at both ends (:func:`exchange_joins`: each joint's value and
+    its limb's orientation in the body). A real move joins the take already: exchanged, it steps away from it at both ends.
+    The pairs nearer the root are judged first, and within a pair the runs in time order, each entry with the
+    first exit after it whose exchange joins; the take is judged with the swaps found so far exchanged back (the
+    step out of one is no break beside the next: two shin swaps 4 frames apart otherwise exchange the clean
+    frames between them). ``rotations`` (F, J, 4) and ``mirrored`` (its mirror image on its own skeleton, None:
+    nothing found) as :func:`swap_exchanges`; ``resid`` (F, J) radians the midpoint residuals
+    (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`); ``partner`` (J,) int; ``parents`` (J,) int, the
+    skeleton's; ``fps`` the take's rate; ``joints`` (J,) bool the joints judged (None: all); ``swaps`` (F, J)
+    bool the swaps found already, whose runs are not judged again (None: none).
+    """
+    from scipy import ndimage
+
+    from .events import event_bounds
+
+    q = np.asarray(rotations, dtype=np.float64)
+    F, J = q.shape[:2]
+    out = np.zeros((F, J), dtype=bool)
+    if mirrored is None or F < 3:
+        return out
+    mirrored = np.asarray(mirrored, dtype=np.float64)
+    partner = np.asarray(partner, dtype=np.int64)
+    parents = np.asarray(parents, dtype=np.int64)
+    use = np.ones(J, dtype=bool) if joints is None else np.asarray(joints, dtype=bool)
+    found = np.zeros((F, J), dtype=bool) if swaps is None else np.asarray(swaps, dtype=bool)
+    track = q.copy()  # the take with the swaps found so far exchanged back
+    both = found & found[:, partner] & (partner != np.arange(J))[None, :]
+    track[both] = mirrored[both]
+    breaks = np.asarray(resid) > np.radians(jump_deg)
+    longest = int(round(max_s * fps))
+    depth = np.zeros(J, dtype=np.int64)
+    for k in range(1, J):
+        depth[k] = depth[parents[k]] + 1
+    body = parent_orientations(track, parents)
+    for j in sorted(range(J), key=lambda k: (depth[k], k)):
+        p = int(partner[j])
+        if p <= j or not (use[j] and use[p]):
+            continue
+        frames = np.flatnonzero(ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool))
+                                & breaks[:, p])
+        if len(frames) < 2:
+            continue
+        first, last, _ = event_bounds(frames)
+        # the steps a -> a + 1 of each event (its break frames are a and a + 1)
+        steps = sorted({a for f, l in zip(first, last) for a in range(max(int(f) - 1, 0), min(int(l), F - 2) + 1)})
+        taken = found[:, j] | found[:, p]
+        for a in steps:
+            if taken[a]:
+                continue  # the step out of a swap is no step into another: the frame before it is swapped
+            for b in steps:
+                if b <= a + 1 or b - a > longest:
+                    continue
+                if taken[a + 1 : min(b + 2, F)].any():
+                    break
+                if exchange_joins(track, mirrored, (j, p), a + 1, b + 1, ratio=ratio, frames=body):
+                    out[a + 1 : b + 1, [j, p]] = taken[a + 1 : b + 1] = True
+                    track[a + 1 : b + 1, [j, p]] = mirrored[a + 1 : b + 1, [j, p]]
+                    body = parent_orientations(track, parents)
+                    break
+    return out
 
 
 #: how far (seconds) a swap's extent may lie from the flags of its one flagged side: the flags start and end at
