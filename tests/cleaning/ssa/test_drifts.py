@@ -8,8 +8,9 @@ import pytest
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, excursions, group_agreement, group_offset_change,
-                                         other_joints_level, smooth_drift_flags)
+from mocapkit.cleaning.ssa.drifts import (body_agreement, chain_level, crossed_turns, excursions, group_agreement,
+                                         group_offset_change, group_offset_turn, offset_turn, other_joints_level,
+                                         smooth_drift_flags)
 from tests.cleaning.ssa.helpers import twin_of
 
 
@@ -429,3 +430,115 @@ def test_detect_the_drift_evidence_is_the_change_alone(walk, drifted, tmp_path):
     assert not dataclasses.replace(near, params=near.params.replace(drift_change=False)).drifts().any()
     back = ssa.Detection.load(det.save(tmp_path / "d.npz"))  # the chains' parents travel with the file
     assert det.parents is not None and np.array_equal(back.parents, det.parents)
+
+
+def test_offset_turn_is_the_change_whose_length_offset_change_gives():
+    rng = np.random.default_rng(5)
+    F, J = 50, 3
+    r = rng.normal(0, 0.2, size=(F, J, 3))
+    scale = rng.uniform(0.05, 0.2, size=(F, J))
+    r[rng.uniform(size=(F, J)) < 0.1] = np.nan
+    scale[2, 1] = 0.0
+    turn = offset_turn(r, scale)
+    assert turn.shape == (F, J, 3)
+    assert np.array_equal(np.linalg.norm(turn, axis=2) / scale, ssa.offset_change(r, scale), equal_nan=True)
+    assert np.isnan(turn[2, 1]).all()
+    held = np.stack([np.tile([0.3, 0.0, 0.0], (F, 1, 1)), np.tile([0.0, 0.3, 0.0], (F, 1, 1))])  # (G, F, 1, 3)
+    held[:, 20:25, 0] += [0.0, 0.0, 0.5]
+    best = np.where(np.arange(F) % 2 == 0, 0, 1)[:, None]
+    got = group_offset_turn(held, np.full((2, F, 1), 0.1), best)
+    assert got.shape == (F, 1, 3) and np.allclose(got[20:25, 0], [0.0, 0.0, 0.5]) and np.allclose(got[:20], 0.0)
+    assert np.isnan(group_offset_turn(held, np.full((2, F, 1), 0.1), np.full((F, 1), -1))).all()
+
+
+def pair_case():
+    """Joints 0 and 1 a left/right pair, both in one excursion at once (each stops the other's evidence), and
+    their changes' directions: ``turns`` (F, 4, 3) to be filled."""
+    jumps, agreement, consistency, fps = drift_case(J=4)
+    consistency[30:70, 1] = consistency[30:70, 0]
+    return jumps, agreement, consistency, fps, np.array([1, 0, 2, 3]), np.zeros((100, 4, 3))
+
+
+@pytest.mark.parametrize("axes, found", [(([1, 0, 0], [0, 1, 0]), True), (([1, 0, 0], [1, 0.1, 0]), False),
+                                         (([1, 0, 0], [-1, 0, 0.1]), False)])
+def test_smooth_drift_flags_two_partners_turned_about_crossed_axes_are_two_drifts(axes, found):
+    """Both sides digressing at once stop each other at the partner gate (a two-sided style); turned about crossed
+    axes they are two drifts and both are flagged, turned alike (or mirrored, the opposite way) a style."""
+    jumps, agreement, consistency, fps, partners, turns = pair_case()
+    assert not smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners).any()
+    turns[30:70, 0], turns[30:70, 1] = axes
+    got = smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners, turns=turns)
+    assert got[30:70, :2].all() == found and not got[:, 2:].any() and not got[:30].any() and not got[70:].any()
+    assert not smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners, turns=turns,
+                                  cross_cos=0.0).any()  # never crossed enough
+
+
+def test_smooth_drift_flags_crossed_turns_need_both_joints_to_be_drift_candidates():
+    """A joint stopped by a partner that is no drift candidate itself (the rest of the body far from its
+    neighbours where the partner is judged, or the partner under z_min) is not freed by crossed turns."""
+    jumps, agreement, consistency, fps, partners, turns = pair_case()
+    turns[30:70, 0], turns[30:70, 1] = [1, 0, 0], [0, 1, 0]
+    weak = consistency.copy()
+    weak[30:70, 1] = np.minimum(weak[30:70, 1], 2.0)  # over partner_ratio * z_min, never z_min
+    assert not smooth_drift_flags(jumps, agreement, weak, fps, partners=partners, turns=turns).any()
+    with pytest.raises(ValueError, match="turns"):
+        smooth_drift_flags(jumps, agreement, consistency, fps, partners=partners, turns=turns[:, :3])
+
+
+def test_smooth_drift_flags_a_parent_and_child_turned_about_crossed_axes_are_two_drifts():
+    jumps, agreement, consistency, fps = drift_case(J=4)
+    parents = np.array([1, -1, 0, 1])
+    consistency[30:70, 1] = consistency[30:70, 0]
+    turns = np.zeros((100, 4, 3))
+    turns[30:70, 0], turns[30:70, 1] = [0, 0, 1], [1, 0, 0]
+    assert not smooth_drift_flags(jumps, agreement, consistency, fps, parents=parents).any()
+    got = smooth_drift_flags(jumps, agreement, consistency, fps, parents=parents, turns=turns)
+    assert got[30:70, :2].all() and not got[:, 2:].any()
+    turns[30:70, 1] = [0, 0.2, 1]  # bent about one axis: a style
+    assert not smooth_drift_flags(jumps, agreement, consistency, fps, parents=parents, turns=turns).any()
+
+
+def test_crossed_turns_reads_the_highest_neighbour_and_the_turns_summed_over_the_excursion():
+    F, J = 20, 3
+    stopped = np.zeros((F, J), dtype=bool)
+    stopped[5:15, 0] = stopped[5:15, 1] = True
+    level = np.zeros((F, J))
+    level[5:15, 1], level[5:15, 2] = 4.0, 2.0
+    turns = np.zeros((F, J, 3))
+    turns[5:15, 0], turns[5:15, 1], turns[5:15, 2] = [1, 0, 0], [0, 1, 0], [1, 0, 0]
+    neighbours = [[1, 2], [0], []]
+    got = crossed_turns(stopped, np.zeros_like(stopped), turns, level, neighbours)
+    assert got[5:15, 0].all() and got[5:15, 1].all() and not got[:, 2].any()
+    level[5:15, 2] = 5.0  # joint 2 (turned alike, not stopped or flagged) now the one that stops joint 0
+    assert not crossed_turns(stopped, np.zeros_like(stopped), turns, level, neighbours)[:, 0].any()
+    flagged = np.zeros_like(stopped)
+    flagged[10, 2] = True
+    turns[5:15, 2] = [0, 0, 1]
+    assert crossed_turns(stopped, flagged, turns, level, neighbours)[5:15, 0].all()
+    turns[5:10, 0] = [0, 0, 1]  # half the excursion turned about joint 2's axis: summed, cos 0.5
+    assert not crossed_turns(stopped, flagged, turns, level, neighbours)[:, 0].any()
+
+
+@pytest.mark.parametrize("joints", [("LeftKnee", "RightKnee"), ("LeftShoulder", "LeftElbow")])
+def test_detect_finds_two_drifts_at_once_on_a_left_right_pair_or_a_chain(walk, joints, tmp_path):
+    """The CMU walk 131_01 with two 35 deg drifts that overlap in time on both knees (a left/right pair) or on the
+    left shoulder and elbow (a parent and its child), against the walk's twin: each joint's digression stops the
+    other's at the partner or chain gate, and the two turn about crossed axes, so both are flagged; with
+    ``drift_cross_cos`` None neither is."""
+    bad, mask, records = corrupt.smooth_drifts(walk, n_drifts=2, peak_deg=35.0, duration_s=(1.0, 1.0), seed=29,
+                                               joints=list(joints))
+    assert {r.joint for r in records} == set(joints)
+    a, b = records
+    assert a.start < b.end and b.start < a.end  # at once
+    det = ssa.detect(bad, [twin_of(walk)], drift=True)
+    js = [walk.skeleton.index(r.joint) for r in records]
+    off = dataclasses.replace(det, params=det.params.replace(drift_cross_cos=None))
+    assert not off.drifts()[:, js].any()
+    got = det.drifts()
+    for r, j in zip(records, js):
+        assert got[r.start:r.end, j].mean() > 0.7 and not got[:r.start, j].any() and not got[r.end:, j].any()
+    assert not np.delete(got, js, axis=1).any()
+    assert det.turn.shape == bad.rotations.shape[:2] + (3,)
+    back = ssa.Detection.load(det.save(tmp_path / "d.npz"))
+    assert np.array_equal(back.turn, det.turn, equal_nan=True) and np.array_equal(back.drifts(), got)
+    assert not dataclasses.replace(back, turn=None).drifts()[:, js].any()  # saved before: the rule as it was

@@ -38,7 +38,7 @@ from .cues import (
     swaps_from_residuals,
     CAUSE_DTYPE,
 )
-from .drifts import group_agreement, group_offset_change, not_looked_for, smooth_drift_flags
+from .drifts import group_agreement, group_offset_change, group_offset_turn, not_looked_for, smooth_drift_flags
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
@@ -119,7 +119,10 @@ class Detection:
     spread and noise, both in the joint group that judges the cell
     (:func:`~mocapkit.cleaning.ssa.drifts.group_offset_change`;
     the drift rule's evidence, None where ``params.drift`` or
-    ``params.drift_change`` is off); digression : float (F, J) angle in
+    ``params.drift_change`` is off); turn : float (F, J, 3) or None, that change's direction, a rotation vector in
+    the parent joint's frame, radians (:func:`~mocapkit.cleaning.ssa.drifts.group_offset_turn`: the drift rule's
+    crossed pairs, ``params.drift_cross_cos``; None where ``change`` is, or for a detection saved before, whose
+    :meth:`drifts` then does not ask them); digression : float (F, J) angle in
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
@@ -193,6 +196,7 @@ class Detection:
     reversals: np.ndarray | None = None  # (F, J) bool: swap cells whose run plays better backwards; None: saved before
     inbetweens: tuple = ()  # ((first, last), ...): frames lying evenly between the frames around them, analysed once
     frozen: np.ndarray | None = None  # (F, J) bool: frozen channels (freezes.frozen_channels); None: saved before
+    turn: np.ndarray | None = None  # (F, J, 3) float: the change's direction (radians); None without it or saved before
 
     @property
     def once(self) -> tuple:
@@ -224,7 +228,7 @@ class Detection:
         if self.once:
             return expand(self.unrepeated().drifts(), self.once, self.num_frames, self.inbetweens)
         return _drifts(self.jumps, self.agreement, self.consistency, self.fps, self.params, self.joint_names, self.change,
-                       self.parents)
+                       self.parents, self.turn)
 
     def causes(self) -> np.ndarray:
         """(F, J) :data:`~mocapkit.cleaning.ssa.cues.CAUSE_DTYPE`: which rules flag each cell (:func:`~mocapkit.cleaning.ssa.cues.flag_causes`; ``flags``
@@ -406,7 +410,7 @@ def flag_runs(flags: np.ndarray, joint_names) -> list[tuple[str, int, int]]:
 #: what each (F, J) array of a :class:`Detection` holds on frames that were not analysed (:meth:`Detection.padded`)
 _PADS = {"mdm": 0.0, "flags": False, "digression": np.nan, "best_group": -1, "jumps": False, "holds": False,
          "swaps": False, "offsets": False, "agreement": np.nan, "consistency": np.nan, "spikes": False, "change": np.nan,
-         "lone_spikes": False, "reversals": False, "frozen": False}
+         "lone_spikes": False, "reversals": False, "frozen": False, "turn": np.nan}
 
 
 def _pad_frames(a: np.ndarray, lo: int, F: int, fill) -> np.ndarray:
@@ -422,21 +426,25 @@ def _span_note(lo: int, hi: int) -> str:
 
 
 def _drifts(jumps, agreement, consistency, fps: float, p: SSAParams, joint_names, change=None,
-            parents=None) -> np.ndarray:
+            parents=None, turn=None) -> np.ndarray:
     """:func:`smooth_drift_flags` with the drift parameters of ``p``, partners paired by ``joint_names``, chains
     read from ``parents`` (the skeleton's parent indices; None: the chain is not asked).
 
     With ``change`` (:func:`offset_change`, used where ``p.drift_change``) the evidence of a cell is the change, not
-    ``consistency`` (a style holds its offset, a drift changes it)."""
+    ``consistency`` (a style holds its offset, a drift changes it); with its direction ``turn`` (F, J, 3) too, two
+    neighbours that stop each other and turn about crossed axes are two drifts (``p.drift_cross_cos``)."""
+    turns = None
     if change is not None and p.drift_change:
         consistency = change
+        turns = turn if p.drift_cross_cos is not None else None
     ratio = p.drift_partner_ratio
     partners = None if ratio is None else mirror_pairs(joint_names)
     chain = p.drift_chain_ratio
     return smooth_drift_flags(jumps, agreement, consistency, fps, p.drift_repeat_deg, p.drift_z, p.drift_min_s,
                               p.confirm_margin_s, p.drift_extent, p.drift_others, p.drift_return_ratio, partners,
                               1.0 if ratio is None else ratio, None if chain is None else parents,
-                              1.0 if chain is None else chain)
+                              1.0 if chain is None else chain, turns,
+                              0.0 if p.drift_cross_cos is None else p.drift_cross_cos)
 
 
 def _digression(motion, mean_tex, spread, texture_joints, up, fps_a, noise_deg, shift_s=0.0, speeds=False, offsets=False):
@@ -694,11 +702,13 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     mdm = movement_digression_map(scores, normalization, row_scale, floor_deg, z_scale)
     consistency = np.full((F, J), np.nan)
     consistency[:, tex_joints] = np.where(ok, np.take_along_axis(z_g, best[None], axis=0)[0], np.nan)
-    change = None
+    change = turn = None
     if more:  # the drift rule's second evidence: the joint's offset from its neighbours, less the one it holds
         rot_g, scale_g = more
         change = np.full((F, J), np.nan)
         change[:, tex_joints] = np.where(ok, group_offset_change(rot_g, scale_g, best), np.nan)
+        turn = np.full((F, J, 3), np.nan)
+        turn[:, tex_joints] = np.where(ok[..., None], group_offset_turn(rot_g, scale_g, best), np.nan)
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     q = np.asarray(motion.rotations, dtype=np.float64)
@@ -739,7 +749,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     if chosen:  # the other joints' angles from the mean texture of the neighbour words that judge the joint
         agreement[:, tex_joints] = np.where(ok, group_agreement(dig_g, best), np.nan)
     agreement[:, [0, pelvis_index(sk)]] = np.nan
-    drifts = _drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change, sk.parents) if p.drift else None
+    drifts = (_drifts(jumps, agreement, consistency, motion.fps, p, sk.joint_names, change, sk.parents, turn)
+              if p.drift else None)
     spikes = spike_breaks(q, resid, jumps)
     # a spike far past the joint's own motion is an error where no similar motion judges it
     lone = lone_spikes(q, resid, np.isfinite(digression), analysed, sk.parents, p.jump_deg, memo=chain_memo)
@@ -767,7 +778,7 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
         neighbor_iend=neighbors.iend, neighbor_jend=neighbors.jend, neighbor_dist=neighbors.dist,
         context_clips=clips, jumps=jumps, holds=holds, swaps=swaps, offsets=offsets,
         agreement=agreement, consistency=consistency, params=params, notes=tuple(notes),
-        analysis=an, spikes=spikes, change=change, left_out=tuple(an.left_out), lone_spikes=lone,
+        analysis=an, spikes=spikes, change=change, turn=turn, left_out=tuple(an.left_out), lone_spikes=lone,
         parents=np.asarray(sk.parents, dtype=np.int64), reversals=backwards, frozen=frozen,
     )
     # Detection.causes() made again gives these (its threshold float(threshold), its drifts() these or none where

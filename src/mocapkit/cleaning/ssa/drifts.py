@@ -40,6 +40,15 @@ raised with the elbow opened), while a drift turns one joint and leaves
 its children's local rotations on their path. Nor is a digression of a
 style next to a drift part of the drift: each excursion is judged alone.
 
+Two drifts at once on a left/right pair or on a parent and its child stop
+each other at those gates. They are told from a style by the direction of
+the changes (:func:`crossed_turns`): a two-sided style turns both sides the
+same way (on the rigs whose mirror keeps local rotations), a bent chain
+turns parent and child about one axis, while two drifts turn each joint
+about its own axis. Where an excursion one of those gates alone stops, and
+its neighbour is stopped or flagged too, turns about an axis crossed with
+the neighbour's (``cross_cos``), both are drifts.
+
 An excursion cut by the take's first or last frame must show the part the
 take cuts: between that edge and its peak the joint comes back to within
 ``return_ratio`` of the peak's consistency. One that starts (or ends) at its
@@ -80,8 +89,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["body_agreement", "chain_level", "excursions", "group_agreement", "group_offset_change", "not_looked_for",
-           "offset_change", "other_joints_level", "smooth_drift_flags"]
+__all__ = ["body_agreement", "chain_level", "crossed_turns", "excursions", "group_agreement", "group_offset_change",
+           "group_offset_turn", "not_looked_for", "offset_change", "offset_turn", "other_joints_level",
+           "smooth_drift_flags"]
 
 
 def not_looked_for(has_context: bool, default: bool) -> str:
@@ -146,6 +156,26 @@ def group_agreement(digression: np.ndarray, best: np.ndarray) -> np.ndarray:
     return _at_best(np.stack([body_agreement(d[g], np.isfinite(d[g]).any(axis=0)) for g in range(d.shape[0])]), best)
 
 
+def offset_turn(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """(F, J, 3) the turn by which each joint's offset from its neighbours differs from the offset it holds.
+
+    ``offsets`` float (F, J, 3) and ``scale`` float (F, J) as :func:`offset_change` reads them. Returns
+    ``offset(f) - m`` (a rotation vector in the parent joint's frame, radians), ``m`` the joint's component-wise
+    median offset over its judged frames: the direction of the change whose length over ``scale`` is
+    :func:`offset_change`. NaN where ``offsets`` or ``scale`` is not finite or ``scale`` is not positive.
+    """
+    r = np.asarray(offsets, dtype=np.float64)
+    scale = np.asarray(scale, dtype=np.float64)
+    if r.ndim != 3 or r.shape[2] != 3 or scale.shape != r.shape[:2]:
+        raise ValueError(f"need offsets (F, J, 3) and scale (F, J), got {r.shape} and {scale.shape}")
+    ok = np.isfinite(r).all(axis=2) & np.isfinite(scale) & (scale > 0)
+    out = np.full(r.shape, np.nan)
+    for j in np.flatnonzero(ok.any(axis=0)):
+        rows = ok[:, j]
+        out[rows, j] = r[rows, j] - np.median(r[rows, j], axis=0)
+    return out
+
+
 def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
     """(F, J) how far each joint's offset from its neighbours moves away from the offset it holds over the take.
 
@@ -163,17 +193,9 @@ def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
     positive. A drift covering more than half of a joint's judged frames moves
     the median, and its change is then measured from the drifted offset.
     """
-    r = np.asarray(offsets, dtype=np.float64)
-    scale = np.asarray(scale, dtype=np.float64)
-    if r.ndim != 3 or r.shape[2] != 3 or scale.shape != r.shape[:2]:
-        raise ValueError(f"need offsets (F, J, 3) and scale (F, J), got {r.shape} and {scale.shape}")
-    ok = np.isfinite(r).all(axis=2) & np.isfinite(scale) & (scale > 0)
-    out = np.full(scale.shape, np.nan)
-    for j in np.flatnonzero(ok.any(axis=0)):
-        rows = ok[:, j]
-        m = np.median(r[rows, j], axis=0)
-        out[rows, j] = np.linalg.norm(r[rows, j] - m, axis=1) / scale[rows, j]
-    return out
+    turn = offset_turn(offsets, scale)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.linalg.norm(turn, axis=2) / np.asarray(scale, dtype=np.float64)
 
 
 def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) -> np.ndarray:
@@ -200,10 +222,31 @@ def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray
     return _at_best(np.stack([offset_change(r[g], scale[g]) for g in range(r.shape[0])]), best)
 
 
+def group_offset_turn(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) -> np.ndarray:
+    """(F, m, 3) :func:`offset_turn` taken in each joint group, read from the group that judges the cell.
+
+    ``offsets`` (G, F, m, 3), ``scale`` (G, F, m) and ``best`` (F, m) as :func:`group_offset_change` reads them:
+    the direction of the change whose length that function gives (radians, rotation vectors in the parent joint's
+    frame; NaN where ``best`` names no group or the group does not judge the cell).
+    """
+    r = np.asarray(offsets, dtype=np.float64)
+    scale = np.asarray(scale, dtype=np.float64)
+    best = np.asarray(best)
+    if r.ndim != 4 or r.shape[3] != 3 or scale.shape != r.shape[:3] or best.shape != r.shape[1:3]:
+        raise ValueError(f"need offsets (G, F, m, 3), scale (G, F, m) and best (F, m), got {r.shape}, "
+                         f"{scale.shape} and {best.shape}")
+    if r.shape[0] == 0:
+        return np.full(best.shape + (3,), np.nan)
+    return _at_best(np.stack([offset_turn(r[g], scale[g]) for g in range(r.shape[0])]), best)
+
+
 def _at_best(per_group: np.ndarray, best: np.ndarray) -> np.ndarray:
-    """(F, m) ``per_group`` (G, F, m) read at each cell's group ``best`` (F, m); NaN where ``best`` names none."""
+    """(F, m, ...) ``per_group`` (G, F, m, ...) read at each cell's group ``best`` (F, m); NaN where ``best`` names
+    none."""
     ok = (best >= 0) & (best < per_group.shape[0])
-    return np.where(ok, np.take_along_axis(per_group, np.where(ok, best, 0)[None], axis=0)[0], np.nan)
+    extra = (1,) * (per_group.ndim - 3)
+    at = np.where(ok, best, 0).reshape((1,) + best.shape + extra)
+    return np.where(ok.reshape(ok.shape + extra), np.take_along_axis(per_group, at, axis=0)[0], np.nan)
 
 
 def other_joints_level(consistency: np.ndarray, judged: np.ndarray, others: int = 1) -> np.ndarray:
@@ -309,6 +352,8 @@ def smooth_drift_flags(
     partner_ratio: float = 0.5,
     parents: np.ndarray | None = None,
     chain_ratio: float = 0.5,
+    turns: np.ndarray | None = None,
+    cross_cos: float = 0.2,
 ) -> np.ndarray:
     """(F, J) bool: the smooth drifts of a take (module docstring).
 
@@ -332,7 +377,9 @@ def smooth_drift_flags(
     parent indices, None: not asked) below ``chain_ratio * z_min``, and, if it touches the first (last) frame,
     its consistency comes down to ``return_ratio`` times its peak's between
     that frame and the peak (module docstring). ``return_ratio`` 1 judges whole runs as they
-    are.
+    are. With ``turns`` (F, J, 3: :func:`group_offset_turn`, the direction of each cell's change) an excursion that
+    the partner or the chain gate alone stops is flagged too where it and that neighbour stop each other and turn
+    about crossed axes (:func:`crossed_turns`, ``cross_cos``): two drifts at once, not one style.
     """
     from scipy import ndimage
 
@@ -356,6 +403,7 @@ def smooth_drift_flags(
         # the joints that may carry a drift: those with evidence (agreement is NaN on the root, the pelvis and
         # joints not analysed)
         strong &= other_joints_level(consistency, np.isfinite(agreement), others) < z_min
+    side_ok = chain_ok = np.ones(jumps.shape, dtype=bool)  # the partner and chain gates (True: not asked)
     if partners is not None and strong.any():
         partners = np.asarray(partners, dtype=np.int64)
         if partners.shape != (jumps.shape[1],):
@@ -366,25 +414,53 @@ def smooth_drift_flags(
         with np.errstate(invalid="ignore"):
             # a style is often two-sided (both arms of a bow held otherwise, both legs bent more): where the
             # joint's mirror partner leaves its neighbours too, the joint's digression is no evidence of a drift
-            strong &= ~(paired[None, :] & (consistency[:, partners] >= partner_ratio * z_min))
+            side_ok = ~(paired[None, :] & (consistency[:, partners] >= partner_ratio * z_min))
     if parents is not None and strong.any():
         if not 0 < chain_ratio <= 1:
             raise ValueError(f"chain_ratio must be in (0, 1], got {chain_ratio!r}")
         # a style bends a chain (a head bowed with the neck, an arm raised with the elbow opened); a drift turns one
         # joint and leaves its children's local rotations on their path
-        strong &= chain_level(consistency, np.isfinite(agreement), parents) < chain_ratio * z_min
-    if not strong.any():
+        chain_ok = chain_level(consistency, np.isfinite(agreement), parents) < chain_ratio * z_min
+    if not (strong & side_ok & chain_ok).any() and turns is None:
         return np.zeros(jumps.shape, dtype=bool)
     n = int(round(margin_s * fps))
     near = ndimage.binary_dilation(jumps, structure=np.ones((2 * n + 1, 1), dtype=bool)) if n > 0 else jumps
+    need = max(int(np.ceil(min_s * fps)), 1)
+    out = _excursion_flags(strong & side_ok & chain_ok, low, near, consistency, need, return_ratio)
+    if turns is None or not strong.any():
+        return out
+    turns = np.asarray(turns, dtype=np.float64)
+    if turns.shape != jumps.shape + (3,):
+        raise ValueError(f"turns must be (F, J, 3) = {jumps.shape + (3,)}, got shape {turns.shape}")
+    level = np.nan_to_num(consistency, nan=-np.inf)
+    crossed = out.copy()
+    J = jumps.shape[1]
+    for gate_on, other_ok, neighbours in (
+        (parents is not None, side_ok, [[k for k in [int(parents[j])] + list(np.flatnonzero(parents == j)) if k >= 0]
+                                        for j in range(J)] if parents is not None else None),
+        (partners is not None, chain_ok, [[int(partners[j])] if partners[j] != j else [] for j in range(J)]
+                                         if partners is not None else None),
+    ):
+        if not gate_on:
+            continue
+        # the excursions this gate alone stops
+        stopped = _excursion_flags(strong & other_ok, low, near, consistency, need, return_ratio) & ~out
+        crossed |= crossed_turns(stopped, out, turns, level, neighbours, cross_cos)
+    return crossed
+
+
+def _excursion_flags(strong, low, near, consistency, need: int, return_ratio: float) -> np.ndarray:
+    """(F, J) bool the excursions of the runs of ``low`` that hold no break (``near``) and at least ``need``
+    ``strong`` cells, cut and judged as :func:`smooth_drift_flags` says."""
+    from scipy import ndimage
+
     along_time = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0]], dtype=bool)  # runs never join across joints
     labels, count = ndimage.label(low, structure=along_time)
     idx = np.arange(1, count + 1)
     broken = ndimage.maximum(near, labels, idx).astype(bool)
     evidence = ndimage.sum(strong, labels, idx)
-    need = max(int(np.ceil(min_s * fps)), 1)
-    out = np.zeros(jumps.shape, dtype=bool)
-    F = jumps.shape[0]
+    out = np.zeros(low.shape, dtype=bool)
+    F = low.shape[0]
     boxes = ndimage.find_objects(labels)
     for i in np.flatnonzero(~broken & (evidence >= need)):
         rows, cols = boxes[i]
@@ -401,4 +477,43 @@ def smooth_drift_flags(
                 if (A + a == 0 and e[: m + 1].min() > back) or (A + b == F and e[m:].min() > back):
                     continue  # never seen leaving (or coming back): a pose held from before (or after) the take
             out[A + a : A + b, j] = True
+    return out
+
+
+def crossed_turns(stopped: np.ndarray, flagged: np.ndarray, turns: np.ndarray, level: np.ndarray, neighbours,
+                  cross_cos: float = 0.2) -> np.ndarray:
+    """(F, J) bool: the excursions of ``stopped`` that are one of two drifts at once, not a style.
+
+    ``stopped`` bool (F, J): excursions a neighbour's digression alone keeps from being drifts (the partner or the
+    chain gate of :func:`smooth_drift_flags`); ``flagged`` bool (F, J) the drifts flagged; ``turns`` float (F, J,
+    3) the direction of each cell's change (:func:`group_offset_turn`; NaN counts as no turn); ``level`` float (F,
+    J) the evidence (the change); ``neighbours`` per joint the joints whose digression stops it (its mirror
+    partner, or its parent and children). Per excursion (a run of ``stopped`` on one joint) the neighbour with the
+    highest level there is the one that stops it. A style moves the two together: a two-sided one turns both sides
+    the same way (the Bandai rig's mirror keeps local rotations), a bent chain turns parent and child about
+    one axis. Two drifts are two joints each turned about its own axis. The excursion is kept when that neighbour
+    is itself stopped or flagged over the excursion (each joint a drift candidate) and their turns summed over the
+    excursion are crossed: ``|sum u.w| < cross_cos * sqrt(sum |u|^2 sum |w|^2)``. Aristidou et al. 2018 (section
+    3.4) flag one joint's digression; this tells two such joints apart from a chain or a pair moving as one.
+    """
+    from scipy import ndimage
+
+    stopped = np.asarray(stopped, dtype=bool)
+    flagged = np.asarray(flagged, dtype=bool)
+    u = np.nan_to_num(np.asarray(turns, dtype=np.float64))
+    out = np.zeros(stopped.shape, dtype=bool)
+    along_time = np.array([[0, 1, 0], [0, 1, 0], [0, 1, 0]], dtype=bool)
+    labels, _ = ndimage.label(stopped, structure=along_time)
+    for rows, cols in ndimage.find_objects(labels):
+        A, B, j = rows.start, rows.stop, cols.start
+        ks = neighbours[j]
+        if not ks:
+            continue
+        k = max(ks, key=lambda k: level[A:B, k].max())
+        if not (stopped[A:B, k].any() or flagged[A:B, k].any()):
+            continue
+        a, w = u[A:B, j], u[A:B, k]
+        den = np.sqrt((a * a).sum() * (w * w).sum())
+        if den > 0 and abs((a * w).sum()) < cross_cos * den:
+            out[A:B, j] = True
     return out

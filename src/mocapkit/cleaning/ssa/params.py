@@ -87,6 +87,12 @@ class SSAParams:
         Nor where the joint's parent or one of its children does (a style bends a chain, a drift turns one
         joint and leaves its children's local rotations on their path,
         :func:`~mocapkit.cleaning.ssa.drifts.chain_level`); None: not asked.
+    drift_cross_cos : ratio or None
+        Where the partner or the chain gate alone stops a joint's excursion and the neighbour that stops it is
+        stopped or flagged there too, the two are two drifts when their changes turn about crossed axes: the
+        cosine of the two turns summed over the excursion under this (a two-sided style turns both sides alike,
+        a bent chain parent and child about one axis; :func:`~mocapkit.cleaning.ssa.drifts.crossed_turns`).
+        Read with ``drift_change`` only; None: not asked.
     drift_change : bool
         A cell is evidence of a drift only as far as the joint's offset from its neighbours' mean differs
         from the offset it holds over the take (the median; both in the group that judges the cell,
@@ -134,6 +140,7 @@ class SSAParams:
     drift_return_ratio: float = 0.3
     drift_partner_ratio: float | None = 0.5
     drift_chain_ratio: float | None = 0.5
+    drift_cross_cos: float | None = 0.2
     drift_change: bool = True
 
     def __post_init__(self):
@@ -160,6 +167,8 @@ class SSAParams:
             raise ValueError(f"drift_partner_ratio must be None or in (0, 1], got {self.drift_partner_ratio!r}")
         if self.drift_chain_ratio is not None and not 0 < self.drift_chain_ratio <= 1:
             raise ValueError(f"drift_chain_ratio must be None or in (0, 1], got {self.drift_chain_ratio!r}")
+        if self.drift_cross_cos is not None and not 0 < self.drift_cross_cos <= 1:
+            raise ValueError(f"drift_cross_cos must be None or in (0, 1], got {self.drift_cross_cos!r}")
         if not isinstance(self.joints, (int, np.integer)):
             object.__setattr__(self, "joints", tuple(j if isinstance(j, str) else int(j) for j in self.joints))
 
