@@ -66,8 +66,8 @@ Where the held-out styles' misses come from (read on half of them, the ``study``
 happy, masculinity, musical and dataset 2 elderly, exhausted; the ``measure`` half, dataset 1 not-confident, old,
 proud, sad, tired and dataset 2 feminine, masculine, only scored; both seeds): on locomotion, the drifts alone on
 their chain and side are found at recall 0.9105 (2,302 truth words; 0.9139 and 0.9073 by half), those that overlap
-a drift on their left/right partner, parent or child at 0.4507 (142; 0.3679 and 0.6944): the partner and chain
-gates take the second drift for a style (``recall_paired_drifts``). Of the single drifts missed whole, most have
+a drift on their left/right partner, parent or child at 0.4507 (142; 0.3679 and 0.6944) with the partner and chain
+gates alone, which take the second drift for a style (``recall_paired_drifts``). Of the single drifts missed whole, most have
 the rest of the body over ``drift_repeat_deg`` from the words that judge the joint (the musical and feminine
 styles) or a partner digressing with the style; on the study half 46 of the 162 locomotion words missed (28 %) are
 the first or last words of drifts found, where the change is still under ``drift_extent``. No rule tried lifted
@@ -84,7 +84,18 @@ cells), lost the measure half's drifts near the edges of short takes (0.8475 -> 
 either way; gestures recall 0.7559 -> 0.6614): the study half's gain was three styles' excursions running on to a
 take's end (a hand held to the end of a guide, an arm after a wave). Where the partner gate alone stops a cell
 (study half), the partner's change over the joint's has quartiles 0.56, 0.86, 1.12 on the untouched takes and 0.41,
-0.58, 0.90 on the drifted cells: the magnitude does not tell a two-sided style from a second drift.
+0.58, 0.90 on the drifted cells: the magnitude does not tell a two-sided style from a second drift. The
+direction does (``SSAParams.drift_cross_cos``, :func:`~mocapkit.cleaning.ssa.drifts.crossed_turns`): on the study
+half the cosine of a partner-stopped cell's change turn with its partner's has median 0.92 on the untouched takes
+(a two-sided style turns both sides alike) against 0.02 on paired drifts (each turns about its own channel), but
+cell by cell 30 % of the untouched takes' cells fall under 0.5. Judged per excursion (the two turns summed over
+it, ``|cos| < 0.2``; 0.1-0.3 tried on the study half) and only where the neighbour that stops it is a drift candidate
+there too (stopped the same way, or flagged), both halves together: recall 0.8124 -> 0.8259, precision 0.9040 ->
+0.9039, clean-take drift cells 587 -> 587; locomotion 0.8838 -> 0.9014 at precision 0.9457 -> 0.9443, its paired
+drifts 0.4507 -> 0.6901; the measure half alone, scored once, 0.8475 -> 0.8521, 0.9454 -> 0.9457, 142 -> 142 cells
+(gestures' paired drifts 0.6143 -> 0.7429); hdm05 the same. Without the neighbour a drift candidate the study half's
+precision falls 0.8623 -> 0.8505 (a drift on one side frees its partner's style). Two drifts turned about one axis
+are still taken for a style.
 
 Figures: recall and precision of ``detect``'s flags (all of them: what a user
 gets) per set; the baseline, in the same run from the same analysis, is the
