@@ -275,8 +275,8 @@ def paired_drifts(records, joint_names, parents) -> np.ndarray:
 
     The drift rule takes such a neighbour's digression at the same frames for a style's (``drift_partner_ratio``:
     a style is often two-sided; ``drift_chain_ratio``: a style bends a chain), so two drifts there at once are
-    refused by design; ``details.results`` scores their recall apart (``recall_paired_drifts``) from that of the
-    others (``recall_single_drifts``)."""
+    found only where the two turn about crossed axes (``drift_cross_cos``); ``details.results`` scores their recall
+    apart (``recall_paired_drifts``) from that of the others (``recall_single_drifts``)."""
     from mocapkit.motion import mirror_pairs
 
     perm = mirror_pairs(joint_names)
