@@ -1,12 +1,17 @@
 # Two entry points for a fresh clone: `make demo` and `make test`.
 # Both create .venv when it is missing. torch is pinned to the CPU wheel that lies on disk
-# (pip install torch==2.13.0) before the package, which declares it, so nothing pulls a CUDA build.
+# (torch==2.13.0 asked for in the same pip run as the package, which declares torch>=2.2), so nothing pulls a CUDA build.
+# pip installs with --no-compile and compileall then byte-compiles the venv's site-packages on every core (-j 0): the
+# .pyc files pip writes there, but pip writes them one by one on one core. They are needed: under PYTHONDONTWRITEBYTECODE
+# imports write none, and every process would compile what it imports again.
 # Installing ends with `python -m mocapkit.warmup`: the numba kernels `mocapkit clean` needs are
 # compiled and cached once, so the first clean does not spend its time compiling.
 PYTHON ?= python3.11
 VENV := .venv
 PY := $(VENV)/bin/python
 PIP := $(PY) -m pip
+# -qq and the exit status ignored: torch/testing/_internal/py312_intrinsics.py is Python 3.12 syntax (pip skips it too).
+COMPILE := $(PY) -m compileall -qq -j 0 $$($(PY) -c 'import site; print(*site.getsitepackages())') || true
 OUT := demo_out
 SAMPLE := src/mocapkit/data/131_01.bvh
 WALK := src/mocapkit/data/12_walk.amc
@@ -21,8 +26,8 @@ $(PY):
 	$(PIP) install --upgrade pip
 
 $(VENV)/.installed: pyproject.toml | $(PY)
-	$(PIP) install torch==2.13.0
-	$(PIP) install -e .
+	$(PIP) install --no-compile torch==2.13.0 -e .
+	$(COMPILE)
 	$(PY) -m mocapkit.warmup
 	touch $@
 
@@ -34,8 +39,8 @@ $(VENV)/.installed: pyproject.toml | $(PY)
 # the sources it imports. It runs while the warm-up's shorter process leaves a core free; its output is not needed
 # (the test run reports any collection error itself).
 $(VENV)/.installed-test: pyproject.toml | $(PY)
-	$(PIP) install torch==2.13.0
-	$(PIP) install -e '.[test]'
+	$(PIP) install --no-compile torch==2.13.0 -e '.[test]'
+	$(COMPILE)
 	env -u PYTHONDONTWRITEBYTECODE $(PY) -m pytest --collect-only -q -p no:cacheprovider >/dev/null 2>&1 & collect=$$!; \
 	  $(PY) -m mocapkit.warmup; rc=$$?; wait $$collect; exit $$rc
 	touch $(VENV)/.installed $@

@@ -46,3 +46,17 @@ def test_pytest_runs_one_worker_per_cpu_this_process_may_use():
                          input="print-workers:\n\t@echo $(WORKERS)\n", cwd=ROOT, capture_output=True, text=True,
                          check=True).stdout
     assert int(out.strip()) == min(len(os.sched_getaffinity(0)), 4), out
+
+
+def test_one_pip_run_pins_torch_and_byte_compiles_on_every_core(test_install_recipe):
+    """torch==2.13.0 (the CPU wheel on disk) is asked for in the same pip run as the package, so the resolver never
+    picks a CUDA build for the package's torch>=2.2; pip writes no bytecode (--no-compile: one file at a time on one
+    core) and compileall writes the same .pyc files on every core (-j 0), before the warm-up imports anything."""
+    pips = [c for c in test_install_recipe if "-m pip install" in c and "--upgrade pip" not in c]
+    assert len(pips) == 1, pips
+    assert "torch==2.13.0" in pips[0] and "-e '.[test]'" in pips[0] and "--no-compile" in pips[0], pips[0]
+    order = [i for i, c in enumerate(test_install_recipe) if "-m pip install" in c and "--upgrade pip" not in c
+             or "-m compileall" in c or "mocapkit.warmup" in c]
+    pip, compile_, warm = order
+    assert "-j 0" in test_install_recipe[compile_] and "site.getsitepackages()" in test_install_recipe[compile_]
+    assert "mocapkit.warmup" in test_install_recipe[warm], test_install_recipe
