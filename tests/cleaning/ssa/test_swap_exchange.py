@@ -16,7 +16,7 @@ from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
 from mocapkit.cleaning.ssa.cues import mirrored_rotations
-from mocapkit.cleaning.ssa.swap_exchange import swap_exchanges
+from mocapkit.cleaning.ssa.swap_exchange import root_depths, swap_exchanges
 from mocapkit.cleaning.whole_take import detect_take
 
 A, B = 146, 217  # the swapped frames a .. b - 1
@@ -258,3 +258,17 @@ def test_two_shin_swaps_four_frames_apart_are_found_each_on_its_own():
                          30.0, 6.0, 1.0)
     assert np.array_equal(found, truth)
 
+
+
+def test_root_depths_count_the_bones_from_the_root_of_a_real_skeleton():
+    """On the bundled CMU walk's skeleton each joint lies one bone deeper than its parent, the root at 0, and
+    the leaves of the legs (the toes) as deep as the chain root -> hip joint -> femur -> tibia -> foot -> toes."""
+    from mocapkit import samples
+    from mocapkit.io import load
+
+    sk = load(samples.path("12_walk.amc")).skeleton
+    parents = np.asarray(sk.parents)
+    depth = root_depths(parents)
+    assert depth[0] == 0 and (depth[1:] == depth[parents[1:]] + 1).all()
+    names = list(sk.joint_names)
+    assert depth[names.index("ltoes")] == depth[names.index("lfemur")] + 3

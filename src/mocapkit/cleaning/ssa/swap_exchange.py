@@ -47,7 +47,7 @@ from ... import rotations as R
 from ..runs import true_runs
 
 __all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "joined_swaps", "pair_exchange", "parent_orientations",
-           "partner_swaps", "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
+           "partner_swaps", "root_depths", "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
 SWAP_JOIN_RATIO = 0.5
@@ -66,6 +66,16 @@ def _joins(q: np.ndarray, new: np.ndarray, a: int, b: int, ratio: float) -> bool
         if not float(R.geodesic_angle(q[out], new[k])) < ratio * own:
             return False
     return True
+
+
+def root_depths(parents) -> np.ndarray:
+    """(J,) int: each joint's number of bones from the root (0 for the root), from ``parents`` (J,) int, the
+    skeleton's (each parent before its children): the pairs nearer the root are judged first."""
+    parents = np.asarray(parents, dtype=np.int64)
+    depth = np.zeros(len(parents), dtype=np.int64)
+    for k in range(1, len(parents)):
+        depth[k] = depth[parents[k]] + 1
+    return depth
 
 
 def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np.ndarray, partner,
@@ -93,10 +103,7 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
         raise ValueError(f"need rotations and mirrored (F, J, 4) and swaps (F, J), got {q.shape}, {mirrored.shape} "
                          f"and {swaps.shape}")
     partner = np.asarray(partner, dtype=np.int64)
-    depth = np.zeros(len(partner), dtype=np.int64)
-    if parents is not None:
-        for k in range(1, len(partner)):
-            depth[k] = depth[parents[k]] + 1
+    depth = root_depths(parents) if parents is not None else np.zeros(len(partner), dtype=np.int64)
     for j in sorted(np.flatnonzero(swaps.any(axis=0)), key=lambda k: (depth[k], k)):
         p = int(partner[j])
         if p <= j:
@@ -235,9 +242,7 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     track[both] = mirrored[both]
     breaks = np.asarray(resid) > np.radians(jump_deg)
     longest = int(round(max_s * fps))
-    depth = np.zeros(J, dtype=np.int64)
-    for k in range(1, J):
-        depth[k] = depth[parents[k]] + 1
+    depth = root_depths(parents)
     body = parent_orientations(track, parents)
     for j in sorted(range(J), key=lambda k: (depth[k], k)):
         p = int(partner[j])
@@ -404,9 +409,7 @@ def partner_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, flags: np.
     W = max(2, int(round(EXTENT_S * fps)))
     out: list[PartnerSwap] = []
     taken = np.zeros(flags.shape, dtype=bool)
-    depth = np.zeros(len(parents), dtype=np.int64)
-    for k in range(1, len(parents)):
-        depth[k] = depth[parents[k]] + 1
+    depth = root_depths(parents)
 
     doubt = flags.copy()  # the cells still to repair, whose values no join of their children can trust
 
