@@ -211,12 +211,7 @@ def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray
     the joint's offset seems to change with no drift at all (on the Bandai Namco rig, where an ``upper`` group
     judges the spine, head and arms beside ``whole``, ``left`` and ``right``).
     """
-    r = np.asarray(offsets, dtype=np.float64)
-    scale = np.asarray(scale, dtype=np.float64)
-    best = np.asarray(best)
-    if r.ndim != 4 or r.shape[3] != 3 or scale.shape != r.shape[:3] or best.shape != r.shape[1:3]:
-        raise ValueError(f"need offsets (G, F, m, 3), scale (G, F, m) and best (F, m), got {r.shape}, "
-                         f"{scale.shape} and {best.shape}")
+    r, scale, best = _group_arrays(offsets, scale, best)
     if r.shape[0] == 0:
         return np.full(best.shape, np.nan)
     return _at_best(np.stack([offset_change(r[g], scale[g]) for g in range(r.shape[0])]), best)
@@ -229,15 +224,21 @@ def group_offset_turn(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) 
     the direction of the change whose length that function gives (radians, rotation vectors in the parent joint's
     frame; NaN where ``best`` names no group or the group does not judge the cell).
     """
+    r, scale, best = _group_arrays(offsets, scale, best)
+    if r.shape[0] == 0:
+        return np.full(best.shape + (3,), np.nan)
+    return _at_best(np.stack([offset_turn(r[g], scale[g]) for g in range(r.shape[0])]), best)
+
+
+def _group_arrays(offsets, scale, best) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``offsets`` (G, F, m, 3), ``scale`` (G, F, m) float and ``best`` (F, m) as arrays, their shapes checked."""
     r = np.asarray(offsets, dtype=np.float64)
     scale = np.asarray(scale, dtype=np.float64)
     best = np.asarray(best)
     if r.ndim != 4 or r.shape[3] != 3 or scale.shape != r.shape[:3] or best.shape != r.shape[1:3]:
         raise ValueError(f"need offsets (G, F, m, 3), scale (G, F, m) and best (F, m), got {r.shape}, "
                          f"{scale.shape} and {best.shape}")
-    if r.shape[0] == 0:
-        return np.full(best.shape + (3,), np.nan)
-    return _at_best(np.stack([offset_turn(r[g], scale[g]) for g in range(r.shape[0])]), best)
+    return r, scale, best
 
 
 def _at_best(per_group: np.ndarray, best: np.ndarray) -> np.ndarray:
