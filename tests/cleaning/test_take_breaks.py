@@ -268,3 +268,21 @@ def test_a_cut_is_named_by_the_first_frame_of_the_second_take(tmp_path, second_f
     assert [c.frame for c in tb.cuts(both)] == [400]
     notes = _note(clean(both, steps="fill,detect"))
     assert re.search(_CUT_AND_ROOT.format(frame=400), notes) and "stays there" not in notes, notes
+
+
+@pytest.mark.parametrize("rig", ["cmu", "bandai"])
+def test_a_teleport_in_one_axis_leaves_the_others_as_written(rig, walk131, request):
+    """The root jumps 1 m in X for three frames: X goes back on the line between the frames around them, the
+    height and Z, on their own path all along, stay bit for bit as the file gives them (the line is up to 3 mm off
+    them on the Bandai walk)."""
+    m = walk131 if rig == "cmu" else request.getfixturevalue("bandai_walks")[0]
+    f = m.num_frames // 2
+    bad = _moved_root(m, slice(f, f + 3), (100.0, 0.0, 0.0))
+    res = clean(bad, steps="fill,detect,repair")
+    put = res.motion.root_positions if m.translations is None else res.motion.translations[:, 1]
+    was = bad.root_positions if m.translations is None else bad.translations[:, 1]
+    assert not np.array_equal(put[f:f + 3, 0], was[f:f + 3, 0])  # X put back
+    assert np.array_equal(put[:, 1:], was[:, 1:])  # height and Z as written
+    truth, _ = tb.pelvis_path_cm(m)
+    path, _ = tb.pelvis_path_cm(res.motion)
+    assert np.linalg.norm(path[f:f + 3] - truth[f:f + 3], axis=1).max() < 5.0

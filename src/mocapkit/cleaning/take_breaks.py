@@ -40,7 +40,7 @@ __all__ = ["CUT_KEPT", "JUMP_CM", "AXIS_CM", "TELEPORT_MAX_S", "FROZEN_MIN_S", "
            "fix_teleports", "cut_scores", "cuts", "cut_mask"]
 
 JUMP_CM = 25.0  # a step of the pelvis this far off the steps beside it (cm per frame) no body makes
-#: cm: a measured axis of a position the file gives partly ``nan`` is put on the line only when it alone is this far off
+#: cm: an axis of a teleport's position is put on the line only when it alone is this far off
 #: it (:func:`fix_teleports`): a channel put back is off by half JUMP_CM, so its farthest axis by at least this
 AXIS_CM = 0.5 * JUMP_CM / np.sqrt(3.0)
 TELEPORT_MAX_S = 0.5  # a jump back within this long makes a teleport
@@ -267,10 +267,11 @@ def fix_teleports(motion: Motion, events, measured=(None, None)) -> tuple[Motion
     """``motion`` with each teleport of ``events`` put back, and the events (teleports marked ``fixed``).
 
     Over a teleport's frames, each position channel that carries the jump (the root position, and the
-    animated translations of the joints from the root down to the pelvis) is replaced by the straight line
-    between its values at the frames before and after; a channel off that line by less than half
-    :data:`JUMP_CM` is left bit for bit, as is every other frame. A teleport touching the take's ends is
-    left (there is no good frame on one side).
+    animated translations of the joints from the root down to the pelvis) is put on the straight line
+    between its values at the frames before and after, axis by axis: an axis off that line by at most
+    :data:`AXIS_CM` is left as written (a root that jumps 1 m in X for a frame keeps its measured height and
+    Z bit for bit), and a channel off the line by less than half :data:`JUMP_CM` is left whole, as is every
+    other frame. A teleport touching the take's ends is left (there is no good frame on one side).
 
     ``measured``: ``(root (F, 3), offsets (F, J, 3))`` bool or None each
     (:func:`mocapkit.cleaning.measured.measured_axes`), the axes the file measures in a position it gives partly
@@ -300,8 +301,13 @@ def fix_teleports(motion: Motion, events, measured=(None, None)) -> tuple[Motion
         for c, keep in zip(chans, kept):
             line = c[a - 1] + t * (c[b] - c[a - 1])
             if np.max(np.linalg.norm(c[a:b] - line, axis=1)) * scale > 0.5 * JUMP_CM:
-                if keep is not None:  # a measured axis no jump of its own moves: as written
-                    line = np.where(keep[a:b] & (np.abs(c[a:b] - line) * scale <= AXIS_CM), c[a:b], line)
+                # an axis no jump of its own moves stays as written; of a position the file gives partly nan, only
+                # its measured axes (an axis the fill made follows the line)
+                mine = np.ones(c[a:b].shape, dtype=bool)
+                if keep is not None:
+                    part = keep[a:b].any(axis=1)
+                    mine[part] = keep[a:b][part]
+                line = np.where(mine & (np.abs(c[a:b] - line) * scale <= AXIS_CM), c[a:b], line)
                 c[a:b] = line
         out.append(dataclasses.replace(e, fixed=True))
     return dataclasses.replace(motion, root_positions=root, translations=tr), out
