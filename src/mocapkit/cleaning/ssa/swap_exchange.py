@@ -209,7 +209,7 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     before: at 30 fps a running leg's midpoint residuals reach the cap of 33 deg, and its partner moves 15-25
     deg a frame, so a shin swap's steps, 20-40 deg, stand out from nothing (Bandai Namco run_normal_016 with
     ``corrupt.real_errors(kinds=("swap",), seed=0)``: the shins swapped over frames 64-78 break 32 and 39 deg
-    into the run, 25 and 28 out of it, under levels of 34 and 38; neither side was named a swap). A label
+    into the run, 25 and 28 out of it, under levels of 34 and 38: that check names neither side). A label
     exchange is no motion, though, and the exchange back proves it: two break events of both joints within
     ``max_s`` seconds, where both limbs exchanged over the frames between join the take with an angular
     acceleration under ``ratio`` times the input's at both ends (:func:`exchange_joins`: each joint's value and
