@@ -213,7 +213,8 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     exchange is no motion, though, and the exchange back proves it: two break events of both joints within
     ``max_s`` seconds, where both limbs exchanged over the frames between join the take with an angular
     acceleration under ``ratio`` times the input's at both ends (:func:`exchange_joins`: each joint's value and
-    its limb's orientation in the body). A real move joins the take already: exchanged, it steps away from it at both ends.
+    its limb's orientation in the body). A real move joins the take already: exchanged, it steps away from it at
+    both ends.
     The pairs nearer the root are judged first, and within a pair the runs in time order, each entry with the
     first exit after it whose exchange joins; the take is judged with the swaps found so far exchanged back (the
     step out of one is no break beside the next: two shin swaps 4 frames apart otherwise exchange the clean
