@@ -705,10 +705,11 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     change = turn = None
     if more:  # the drift rule's second evidence: the joint's offset from its neighbours, less the one it holds
         rot_g, scale_g = more
+        turned = group_offset_turn(rot_g, scale_g, best)  # the change's direction; its length is the change
         change = np.full((F, J), np.nan)
-        change[:, tex_joints] = np.where(ok, group_offset_change(rot_g, scale_g, best), np.nan)
+        change[:, tex_joints] = np.where(ok, group_offset_change(rot_g, scale_g, best, turn=turned), np.nan)
         turn = np.full((F, J, 3), np.nan)
-        turn[:, tex_joints] = np.where(ok[..., None], group_offset_turn(rot_g, scale_g, best), np.nan)
+        turn[:, tex_joints] = np.where(ok[..., None], turned, np.nan)
     analysed = np.zeros(J, dtype=bool)
     analysed[tex_joints] = True
     q = np.asarray(motion.rotations, dtype=np.float64)

@@ -198,7 +198,8 @@ def offset_change(offsets: np.ndarray, scale: np.ndarray) -> np.ndarray:
         return np.linalg.norm(turn, axis=2) / np.asarray(scale, dtype=np.float64)
 
 
-def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) -> np.ndarray:
+def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray,
+                        turn: np.ndarray | None = None) -> np.ndarray:
     """(F, m) :func:`offset_change` measured in each joint group, read from the group that judges the cell.
 
     ``offsets`` float (G, F, m, 3) and ``scale`` float (G, F, m): per joint group (section 3.1), the turn from that
@@ -209,12 +210,16 @@ def group_offset_change(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray
     differently close to the take, so the offset a joint holds differs from group to group; a median over the
     take of the offsets of whichever group was best at each frame mixes them, and where the best group changes
     the joint's offset seems to change with no drift at all (on the Bandai Namco rig, where an ``upper`` group
-    judges the spine, head and arms beside ``whole``, ``left`` and ``right``).
+    judges the spine, head and arms beside ``whole``, ``left`` and ``right``). ``turn``: the change's direction,
+    :func:`group_offset_turn` of the same arrays, where the caller has it (None: taken here); the change is its
+    length over the best group's scale.
     """
     r, scale, best = _group_arrays(offsets, scale, best)
     if r.shape[0] == 0:
         return np.full(best.shape, np.nan)
-    return _at_best(np.stack([offset_change(r[g], scale[g]) for g in range(r.shape[0])]), best)
+    turn = group_offset_turn(r, scale, best) if turn is None else np.asarray(turn, dtype=np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.linalg.norm(turn, axis=2) / _at_best(scale, best)
 
 
 def group_offset_turn(offsets: np.ndarray, scale: np.ndarray, best: np.ndarray) -> np.ndarray:
