@@ -181,10 +181,10 @@ def exchange_joins(q: np.ndarray, mirrored: np.ndarray, joints, start: int, end:
     joints = list(joints)
     own, new = q[lo:hi, joints], mirrored[lo:hi, joints]
     judged = [(own, new)]  # each joint's value: the channels a swap exchanges
-    if frames is None and parents is not None:
-        frames = parent_orientations(q, parents)
-    if frames is not None:  # and its limb's path: the chain above it turns the limb too
-        body = frames[lo:hi, joints]
+    # and its limb's path: the chain above it turns the limb too (a frame's parent orientations are that frame's)
+    body = (frames[lo:hi, joints] if frames is not None else
+            None if parents is None else parent_orientations(q[lo:hi], parents)[:, joints])
+    if body is not None:
         judged.append((R.quaternion_multiply(body, own), R.quaternion_multiply(body, new)))
     a, b, n = start - lo, end - lo, hi - lo
     for own, new in judged:
@@ -268,7 +268,7 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
                 if exchange_joins(track, mirrored, (j, p), a + 1, b + 1, ratio=ratio, frames=body):
                     out[a + 1 : b + 1, [j, p]] = taken[a + 1 : b + 1] = True
                     track[a + 1 : b + 1, [j, p]] = mirrored[a + 1 : b + 1, [j, p]]
-                    body = parent_orientations(track, parents)
+                    body[a + 1 : b + 1] = parent_orientations(track[a + 1 : b + 1], parents)
                     break
     return out
 
