@@ -35,13 +35,13 @@ import struct
 
 import numpy as np
 
-from .c3d_records import SectionError, section_records
+from .c3d_records import readable_records
 
 __all__ = ["parameter_values", "channel_values", "header_layout", "analog_unsigned", "offset_values", "analog_offsets",
            "with_offsets", "held_analogs", "stored_analogs", "parameter_at", "put_parameter", "put_analogs",
-           "put_header_gap", "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events", "put_spare_events",
-           "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
-           "oversized_parameter", "parameter_records"]
+           "put_header_gap", "keep_data_start", "integer_data", "integer_scale", "stored_scale", "spare_events",
+           "put_spare_events", "header_events", "put_header_events", "EVENT_SLOTS", "PARAMETER_ENTRIES", "text_chunks",
+           "oversized_parameter"]
 
 BLOCK = 512
 """Bytes in a C3D block: the header, the parameter section and the data block start on one."""
@@ -351,30 +351,16 @@ def stored_analogs(analogs: np.ndarray, parameters, held: np.ndarray | None = No
     return stored, scales, written, float(gen[0])
 
 
-def parameter_records(data):
-    """Yield ``(id, LABEL, start, at, next)`` for each group (id < 0) and parameter record of the parameter
-    section of a C3D ezc3d wrote (Intel byte order), in file order: ``start`` the record's first byte,
-    ``at`` its offset-to-next word, ``next`` that word's value (0 or less on the last record). The records
-    are those :func:`~mocapkit.io.c3d_records.section_records` walks, up to the first it finds malformed."""
-    try:
-        for record in section_records(data, "<"):
-            yield record.gid, record.label, record.start, record.at, record.next
-    except SectionError:
-        return
-
-
 def parameter_at(data, group: str, name: str) -> tuple[int, int, int] | None:
     """``(byte offset of its first value, type, number of values)`` of parameter GROUP:NAME in a C3D ezc3d wrote
     (Intel byte order), or None. Types: -1 text, 1 byte, 2 16-bit integer, 4 float."""
     groups: dict[int, str] = {}
     found = []
-    for gid, label, _, at, _ in parameter_records(data):
-        if gid < 0:
-            groups[-gid] = label
-        elif label == name.upper():
-            typ, ndim = struct.unpack_from("b", data, at + 2)[0], data[at + 3]
-            dims = data[at + 4:at + 4 + ndim]
-            found.append((gid, (at + 4 + ndim, typ, int(np.prod(dims)) if ndim else 1)))
+    for r in readable_records(data, "<"):
+        if r.gid < 0:
+            groups[-r.gid] = r.label
+        elif r.label == name.upper():
+            found.append((r.gid, (r.first, r.typ, int(np.prod(r.dims)) if r.dims else 1)))
     return next((where for gid, where in found if groups.get(gid) == group.upper()), None)
 
 

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .c3d_frames import stored_values
-from .c3d_records import SectionError, section_records
+from .c3d_records import readable_records
 
 __all__ = ["read_parameters"]
 
@@ -50,17 +50,6 @@ def _numbers(raw: bytes, typ: int, dims: tuple[int, ...], proc: int) -> np.ndarr
     return np.atleast_1d(flat.reshape(dims, order="F") if dims else flat)
 
 
-def _records(raw: bytes) -> list:
-    """The records of ``raw``'s parameter section up to the first that cannot be read whole or is malformed."""
-    out = []
-    try:
-        for record in section_records(raw):
-            out.append(record)
-    except SectionError:
-        pass
-    return out
-
-
 def _texts(raw: bytes, dims: tuple[int, ...]) -> list[str]:
     """A text record's values: one text (no or one dimension), else one per column of ``dims[0]`` characters."""
     if len(dims) <= 1:
@@ -74,12 +63,12 @@ def read_parameters(raw: bytes, records=None) -> dict:
     (False: :func:`mocapkit.io.c3d._with_written_case` sets them), value}, each group's ``__METADATA__``
     {DESCRIPTION, IS_LOCKED}, names upper-cased, as the module says. ``records``: the section's records as
     :func:`~mocapkit.io.c3d_structure.check_structure` walked them (a sequence of
-    :class:`~mocapkit.io.c3d_records.Record`); None: walked here (:func:`~mocapkit.io.c3d_records.section_records`),
-    the walk ending at a record that cannot be read whole or is malformed."""
+    :class:`~mocapkit.io.c3d_records.Record`); None: walked here (:func:`~mocapkit.io.c3d_records.readable_records`:
+    up to a record that cannot be read whole or is malformed)."""
     proc = raw[(raw[0] - 1) * BLOCK + 3]
     groups: dict[int, tuple[str, dict]] = {}
     params: list[tuple[int, str, dict]] = []
-    for record in _records(raw) if records is None else records:
+    for record in readable_records(raw) if records is None else records:
         desc = _text(record.description).rstrip()
         if record.gid < 0:
             groups.setdefault(-record.gid, (record.label, {"__METADATA__": {"DESCRIPTION": desc, "IS_LOCKED": False}}))

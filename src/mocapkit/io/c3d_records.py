@@ -8,7 +8,7 @@ within the file's bytes and says where it is malformed; the structure check
 (:func:`~mocapkit.io.c3d_structure.check_structure`, before any C++ reader
 sees a file), the pure-Python parameter reading
 (:func:`~mocapkit.io.c3d_parameters.read_parameters`) and the writer's
-record edits (:func:`~mocapkit.io.c3d_layout.parameter_records`) all read
+record edits (:func:`~mocapkit.io.c3d_layout.parameter_at`, :mod:`~mocapkit.io.c3d_section`) all read
 its records. C3D format: Motion Lab Systems, "The C3D File Format User
 Guide" (c3d.org).
 """
@@ -18,7 +18,7 @@ from __future__ import annotations
 import struct
 from typing import Iterator, NamedTuple
 
-__all__ = ["Record", "SectionError", "section_records", "section_start"]
+__all__ = ["Record", "SectionError", "readable_records", "section_records", "section_start"]
 
 BLOCK = 512
 
@@ -139,3 +139,15 @@ def section_records(raw, order: str | None = None) -> Iterator[Record]:
             raise SectionError(f"parameter record {name.decode()}: the offset to the next record ({nxt}) points "
                                "backwards or inside it")
         i = at + nxt
+
+
+def readable_records(raw, order: str | None = None) -> list[Record]:
+    """The records :func:`section_records` walks, up to the first that cannot be read whole or is malformed (no
+    :class:`SectionError`): what a reader of a file already checked, or written by ezc3d, takes as the section."""
+    out: list[Record] = []
+    try:
+        for record in section_records(raw, order):
+            out.append(record)
+    except SectionError:
+        pass
+    return out

@@ -35,7 +35,8 @@ import struct
 
 import numpy as np
 
-from .c3d_layout import parameter_records, put_parameter
+from .c3d_layout import put_parameter
+from .c3d_records import readable_records
 
 __all__ = ["keep_parameters", "UPDATED", "parameter_record"]
 
@@ -86,22 +87,15 @@ def parameter_record(param: dict) -> bytes:
 
 def _records(data) -> list[dict]:
     """The records of ``data``'s parameter section (a C3D ezc3d wrote: Intel order), in file order
-    (:func:`~mocapkit.io.c3d_layout.parameter_records`): ``gid`` (negative for a group), ``name`` (as written),
+    (:func:`~mocapkit.io.c3d_records.readable_records`): ``gid`` (negative for a group), ``name`` (as written),
     ``locked``, ``body`` (the bytes after the offset word) and, for a parameter, ``values`` (the body up to its
     description)."""
     out = []
-    for gid, _, start, at, _ in parameter_records(data):
-        if gid < 0:
-            end = at + 2 + 1 + data[at + 2]
-            values = b""
-        else:
-            ndim = data[at + 3]
-            count = int(np.prod(list(data[at + 4:at + 4 + ndim]))) if ndim else 1
-            p = at + 4 + ndim + abs(struct.unpack_from("b", data, at + 2)[0]) * count
-            values, end = bytes(data[at + 2:p]), p + 1 + data[p]
-        out.append({"gid": gid, "name": bytes(data[start + 2:at]).decode("latin-1"),
-                    "locked": struct.unpack_from("b", data, start)[0] < 0, "body": bytes(data[at + 2:end]),
-                    "values": values})
+    for r in readable_records(data, "<"):
+        described = r.first + r.size  # the description's length byte
+        out.append({"gid": r.gid, "name": r.name.decode("latin-1"), "locked": r.locked,
+                    "body": bytes(data[r.at + 2:described + 1 + data[described]]),
+                    "values": b"" if r.gid < 0 else bytes(data[r.at + 2:described])})
     return out
 
 
