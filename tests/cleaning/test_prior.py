@@ -550,8 +550,8 @@ def test_the_hermite_blend_is_the_cubic_near_the_ends_and_keeps_a_cubic_fill(coe
     df = lambda t: c1 + 2 * c2 * t + 3 * c3 * t**2  # noqa: E731
     inner = f(np.arange(n, dtype=float))
     args = (f(-1.0), f(float(n)), df(-1.0), df(float(n)))
-    assert np.allclose(P.hermite_blend(np.full(n, 100.0), *args, fps=1e12), inner, atol=1e-6)
-    assert np.allclose(P.hermite_blend(inner, *args, fps=30.0), inner, atol=1e-9)
+    assert np.allclose(P.hermite_blend(np.full(n, 100.0), np.arange(n), n, *args, fps=1e12), inner, atol=1e-6)
+    assert np.allclose(P.hermite_blend(inner, np.arange(n), n, *args, fps=30.0), inner, atol=1e-9)
 
 
 @settings(max_examples=200, deadline=None)

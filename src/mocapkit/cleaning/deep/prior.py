@@ -769,13 +769,13 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     reading at the gap's ends (a ramped one: ``meets_reading``). Otherwise the offsets are taken from the fill's
     own ends, continued one frame by its first and last differences: a field that reads the channel's own samples
     near the gap (a prior without the ramp) ends where it ends, not on the reading, and taking the offsets from the
-    reading there would leave a step (up to 2.5 deg at each end of a clean 30 fps take's gaps). Then, on a clean channel, a gap
-    of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite curve through its
-    end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at ``d`` seconds from
-    the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours, and with its ridge
-    leans towards the training mean, so on clean motion a short gap's fill alone wanders off the samples' own course
-    (a still foot 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it. Every gap of
-    every channel at once (:func:`mocapkit.cleaning.runs.column_runs`).
+    reading there would leave a step (up to 2.5 deg at each end of a clean 30 fps take's gaps). Then, on a clean
+    channel, a gap of at most :data:`HERMITE_MAX_S` with samples on both sides is blended with the cubic Hermite
+    curve through its end samples and their slopes (:func:`end_slope`), with the weight ``exp(-d / HERMITE_S)`` at
+    ``d`` seconds from the nearer end: the prior's field reads the frames 2-32 frames away, never the neighbours,
+    and with its ridge leans towards the training mean, so on clean motion a short gap's fill alone wanders off the
+    samples' own course (a still foot 3 deg off in a one-frame gap of a 30 fps take) where the cubic continues it.
+    Every gap of every channel at once (:func:`mocapkit.cleaning.runs.column_runs`).
     """
     F = len(x)
     clean = clean_channels(x, miss, fps)
@@ -806,8 +806,8 @@ def anchor_ends(out: np.ndarray, x: np.ndarray, reading: np.ndarray, miss: np.nd
     run, frame = run_cells(s, e)
     c = col[run]
     n = (e - s)[run]
-    out[frame, c] = _hermite(out[frame, c], frame - s[run], n, x[s - 1, col][run], x[e, col][run], -v0[run],
-                             v1[run], fps)
+    out[frame, c] = hermite_blend(out[frame, c], frame - s[run], n, x[s - 1, col][run], x[e, col][run],
+                                  -v0[run], v1[run], fps)
 
 
 def _outwards(x: np.ndarray, miss: np.ndarray, first: np.ndarray, col: np.ndarray, step: int):
@@ -845,17 +845,11 @@ def end_slope(x: np.ndarray, miss: np.ndarray) -> float | np.ndarray:
     return float(slope) if slope.ndim == 0 else slope
 
 
-def hermite_blend(fill: np.ndarray, a: float, b: float, va: float, vb: float, fps: float) -> np.ndarray:
-    """(n,) ``fill`` of a gap between samples ``a`` (frame -1) and ``b`` (frame n), blended with the cubic Hermite
-    curve through them with slopes ``va`` and ``vb`` (per frame): the curve's weight is ``exp(-d / HERMITE_S)`` at
-    ``d`` seconds from the nearer end (:func:`anchor_ends`)."""
-    n = len(fill)
-    return _hermite(fill, np.arange(n), n, a, b, va, vb, fps)
-
-
-def _hermite(fill, i, n, a, b, va, vb, fps: float) -> np.ndarray:
-    """:func:`hermite_blend` frame by frame: frame ``i`` of a gap of ``n`` frames, each argument one number or one
-    per frame (the gaps of a take together)."""
+def hermite_blend(fill, i, n, a, b, va, vb, fps: float) -> np.ndarray:
+    """``fill`` at frame ``i`` of a gap of ``n`` frames between samples ``a`` (frame -1) and ``b`` (frame n),
+    blended with the cubic Hermite curve through them with slopes ``va`` and ``vb`` (per frame): the curve's
+    weight is ``exp(-d / HERMITE_S)`` at ``d`` seconds from the nearer end (:func:`anchor_ends`). Each argument
+    one number or one per cell (every gap of a take together); one gap whole: ``i = np.arange(n)``."""
     u = (i + 1.0) / (n + 1.0)  # from a (0) to b (1)
     h = n + 1.0  # frames between a and b
     cubic = ((2 * u**3 - 3 * u**2 + 1) * a + (u**3 - 2 * u**2 + u) * h * va + (-2 * u**3 + 3 * u**2) * b
