@@ -347,13 +347,19 @@ def slow_offset_change(r, scale):
     return out
 
 
-def test_offset_change_is_the_offset_less_the_one_held_over_the_take():
-    rng = np.random.default_rng(4)
-    F, J = 60, 4
+def gappy_offsets(seed: int, F: int, J: int):
+    """Random offsets (F, J, 3) and scales (F, J), a tenth of the offsets and a twentieth of the scales NaN."""
+    rng = np.random.default_rng(seed)
     r = rng.normal(0, 0.2, size=(F, J, 3))
     scale = rng.uniform(0.05, 0.2, size=(F, J))
     r[rng.uniform(size=(F, J)) < 0.1] = np.nan
     scale[rng.uniform(size=(F, J)) < 0.05] = np.nan
+    return r, scale
+
+
+def test_offset_change_is_the_offset_less_the_one_held_over_the_take():
+    F, J = 60, 4
+    r, scale = gappy_offsets(4, F, J)
     scale[3, 1] = 0.0
     r[:, 3] = np.nan  # a joint never judged
     got = ssa.offset_change(r, scale)
@@ -433,11 +439,8 @@ def test_detect_the_drift_evidence_is_the_change_alone(walk, drifted, tmp_path):
 
 
 def test_offset_turn_is_the_change_whose_length_offset_change_gives():
-    rng = np.random.default_rng(5)
     F, J = 50, 3
-    r = rng.normal(0, 0.2, size=(F, J, 3))
-    scale = rng.uniform(0.05, 0.2, size=(F, J))
-    r[rng.uniform(size=(F, J)) < 0.1] = np.nan
+    r, scale = gappy_offsets(5, F, J)
     scale[2, 1] = 0.0
     turn = offset_turn(r, scale)
     assert turn.shape == (F, J, 3)
