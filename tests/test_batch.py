@@ -222,10 +222,11 @@ def test_a_take_whose_batch_is_gone_moves_nothing_into_place(tmp_path, monkeypat
     assert not [p for p in out.rglob("*") if p.is_file()] and not list(out.glob(".*"))
 
 
-def _start_batch(src: Path, out: Path, executor: str) -> subprocess.Popen:
+def _start_batch(src: Path, out: Path, executor: str, jobs: int | None = None) -> subprocess.Popen:
     code = textwrap.dedent(f"""
         from mocapkit.batch import clean_batch
-        clean_batch({str(src)!r}, {str(out)!r}, steps=["fill", "denoise"], executor={executor!r}, progress=False)
+        clean_batch({str(src)!r}, {str(out)!r}, steps=["fill", "denoise"], executor={executor!r}, jobs={jobs!r},
+                    progress=False)
     """)
     return subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
                             env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
@@ -268,7 +269,9 @@ def _gone(pid: int) -> bool:
 def test_kill_9_of_the_batch_takes_its_workers_and_their_writes(long_takes, tmp_path):
     psutil = pytest.importorskip("psutil")
     out = tmp_path / "out"
-    proc = _start_batch(long_takes, out, "processes")
+    # jobs=2: a pool of worker processes on any machine; left to the cores, one core cleans in the batch's own
+    # process and there would be no worker whose death this test checks
+    proc = _start_batch(long_takes, out, "processes", jobs=2)
     _wait_for(lambda: _staging(out), "the first take started", proc)  # readiness: a worker made its staging folder
     workers = [c.pid for c in psutil.Process(proc.pid).children(recursive=True)]
     assert workers
