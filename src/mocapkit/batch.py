@@ -379,7 +379,8 @@ class BatchSummary:
 
     ``rows``: one dict per take, sorted by input: ``input``, ``output``,
     ``status`` (``done``/``skipped``/``failed``), ``reason`` (one line),
-    ``seconds`` and, for cleaned takes, the counts of cells changed, ``cuts`` (each
+    ``seconds`` and, for cleaned takes and those skipped as complete (read from the record the earlier run wrote
+    beside the output), the counts of cells changed, ``cuts`` (each
     :class:`~mocapkit.cleaning.take_breaks.Cut`'s fields: two takes joined, or frames dropped), ``warnings`` (a step's fallback, a model's
     licence: lines that name no file) and ``file_notes`` (what the reader did, what the output's format leaves out:
     each line names the file it is about, as ``clean`` prints them; paths as the caller gave them).
@@ -605,6 +606,7 @@ def clean_batch(
     step list, context or executor (:func:`mocapkit.parallel.check_executor`)
     and on a refused output; nothing is written then.
     """
+    from .batch_written import skipped_counts
     from .cleaning.pipeline import STEPS, check_noise_deg, parse_steps
     from .context import is_off
     from .io.outputs import check_outputs, inside, missing_folders, resolved
@@ -656,7 +658,8 @@ def clean_batch(
             why, anew, decided = _not_complete(inp, files, request, markers, flags)
             if not why or (decided and why.startswith("its input") and not overwrite):
                 summary.rows.append({"input": str(inp), "output": str(files["output"]), "status": "skipped",
-                                     "reason": _kept(why, decided, SAID[flags]["overwrite"]), "seconds": 0.0})
+                                     "reason": _kept(why, decided, SAID[flags]["overwrite"]), "seconds": 0.0,
+                                     **skipped_counts(inp, files["output"], files["record"])})  # the earlier run's
                 continue
             if anew:  # a new version of the take: its old output is this batch's own, cleaned again as it is
                 again[inp] = f"cleaned again: {why}"
@@ -757,11 +760,11 @@ def clean_batch(
 def _write_index(index: Path, rows: list, plans: list, inputs: list, in_dir: Path, out_dir: Path,
                  request: dict) -> Path | None:
     """Write the batch's overview ``index`` (:func:`mocapkit.report.batch_index.write_batch_index`) of ``rows``, each
-    with its report and, for a complete take skipped this run, its counts and the decisions file that decided it,
-    read from its record; None (nothing written) where no take is complete: the folder keeps no page of failures."""
+    with its report and, for a complete take skipped this run, the decisions file that decided it, read from its
+    record (its counts are in its row: :func:`mocapkit.batch_written.skipped_counts`); None (nothing written) where
+    no take is complete: the folder keeps no page of failures."""
     from . import __version__
     from .batch_decided import decided_by
-    from .batch_written import row_from_record
     from .cleaning.pipeline import CleanResult
     from .report.batch_index import write_batch_index
 
@@ -770,14 +773,12 @@ def _write_index(index: Path, rows: list, plans: list, inputs: list, in_dir: Pat
     for row in rows:
         files = files_of.get(row["input"]) or {}
         row = {**row, "report": files.get("report") if row["status"] != "failed" else None}
-        if row["status"] == "skipped" and files:
+        if row["status"] == "skipped" and files:  # its counts are the row's own (clean_batch read them)
             try:
-                counts = row_from_record(row["input"], files["output"], files["record"])
                 params = CleanResult.load_params(files["record"])
             except MocapError:  # an unreadable record: the take is listed, without its counts
-                counts, params = {}, None
-            row.update({k: v for k, v in counts.items() if k not in ("status", "reason", "seconds")},
-                       decided=decided_by(params, files["output"]))
+                params = None
+            row.update(decided=decided_by(params, files["output"]))
         shown.append(row)
     if not any(r["status"] != "failed" for r in shown):
         return None

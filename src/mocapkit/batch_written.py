@@ -6,6 +6,8 @@ place and before its row reached the batch's process (a worker's result on its w
 the take is kept on disk, and its line would be missing from the log. :func:`found_written` finds such takes when
 the batch ends early, and :func:`row_from_record` gives each the row its worker would have given (what was filled,
 flagged, repaired and denoised; a marker capture's changed samples by kind), read from the record it wrote.
+:func:`skipped_counts` reads the same counts for a take skipped as complete, so its row says what the earlier run
+found and fixed.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from pathlib import Path
 
 from .errors import MocapError
 
-__all__ = ["WRITTEN_NOTE", "found_written", "row_from_record"]
+__all__ = ["WRITTEN_NOTE", "found_written", "row_from_record", "skipped_counts"]
 
 #: What the line of a take found written after an interrupt says in place of its cleaning time.
 WRITTEN_NOTE = "written before the batch was interrupted; said from its record"
@@ -65,3 +67,16 @@ def found_written(takes: Iterable[tuple[int, Path, dict]], complete: Callable[[P
         except MocapError:
             continue
     return rows
+
+
+def skipped_counts(inp, output, record) -> dict:
+    """The counts of :func:`row_from_record` (``frames``, what was filled, repaired, denoised, flagged, ``left``,
+    ``cuts``; a marker capture's changed samples by kind) of the take ``inp`` skipped as complete: what the earlier
+    run that wrote ``output`` and its ``record`` found and fixed, without its row's ``status``, ``reason`` and
+    ``seconds`` (the skipped row's own). Empty for a record that cannot be read: the row is then listed without
+    counts, as before a take is cleaned."""
+    try:
+        row = row_from_record(inp, output, record)
+    except MocapError:
+        return {}
+    return {k: v for k, v in row.items() if k not in ("input", "output", "status", "reason", "seconds")}

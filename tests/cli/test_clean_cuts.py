@@ -78,6 +78,27 @@ def test_the_batch_names_each_takes_cuts_in_its_line_its_json_and_its_overview(t
     assert cut["frame"] == 200 and round(cut["root_cm"]) == 78 and 0.6 <= cut["share"] <= 1
 
 
+def test_a_take_skipped_as_complete_says_what_its_earlier_run_found_and_fixed(takes, tmp_path):
+    """`clean-batch --json` run again over the same OUT_DIR skipped both takes with no counts and no ``cuts``: the
+    joined sneaks' cut at frame 200 was said only by the run that cleaned it. Now a skipped row reads them from the
+    take's record beside its output, the same as the first run's row."""
+    out = tmp_path / "out"
+    runs = []
+    for _ in range(2):
+        rc, text, err = helpers.run("clean-batch", takes, out, "--executor", "serial", "--steps", "fill,detect",
+                                    "--json")
+        assert rc == 0, err
+        runs.append({r["input"].rsplit("/", 1)[-1]: r for r in json.loads(text)["rows"]})
+    first, again = runs
+    said = ("frames", "filled", "repaired", "denoised", "flagged", "left", "cuts")
+    for name in ("joined.bvh", "dance.bvh"):
+        assert first[name]["status"] == "done" and again[name]["status"] == "skipped"
+        assert {k: again[name][k] for k in said} == {k: first[name][k] for k in said}, name
+    (cut,) = again["joined.bvh"]["cuts"]
+    assert cut["frame"] == 200 and round(cut["root_cm"]) == 78
+    assert again["dance.bvh"]["frames"] == 60 and again["dance.bvh"]["cuts"] == []
+
+
 def test_the_batch_says_where_each_takes_record_and_report_are_and_that_none_was_asked_for(takes, tmp_path):
     """Without --report a batch wrote each take's record, and no report or overview; its last line said only the
     totals, so a person looked for an index.html that was never asked for. Now a line says where the files are and,
