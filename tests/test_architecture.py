@@ -13,6 +13,7 @@ LAYERS = {
     "errors": -1, "rotations": -1, "interrupts": -1, "progress": -1, "parallel": -1, "kernel_cache": -1,
     "_numba_quaternions": -1, "_numba_euler": -1, "words": -1,
     "motion": 0, "joints": 0, "rigs": 0, "markerset": 0, "digest": 0, "mirroring": 0, "samples": 0, "_numba_fk": 0,
+    "side_labels": 0,
     "io": 1,
     "features": 2, "metrics": 2, "corrupt": 2, "joint_spread": 2,
     "database": 3, "database_folder": 3, "context": 3, "search": 3,

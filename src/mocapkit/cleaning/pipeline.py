@@ -139,6 +139,7 @@ import numpy as np
 from .. import rotations as R
 from ..errors import MocapError
 from ..motion import Motion
+from ..side_labels import exchanged_sides
 from ..words import plural
 from .calibration import calibration_poses
 # the record of a cleaning (CleanResult, StepRecord, the .clean.npz), its own module: importable from here as ever
@@ -546,6 +547,9 @@ def clean(
     held = held_still_note(motion) if "detect" in steps else ""
     if held:
         notes.append(held)
+    sides = exchanged_sides(motion)  # a rig mapped left for right: named, nothing changed for it
+    if sides is not None:
+        notes.append(str(sides))
     # channels written as 0 where the capture lost data are missing cells, which fill fills (module docstring)
     values = motion.channel_values()  # the file's channels, read by the zeros and the interpolated frames
     found_zeros = find_zeros(motion, values)

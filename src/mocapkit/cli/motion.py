@@ -32,6 +32,7 @@ def info(
     from ..motion import ROLES, standard_joints, unit_scale_cm
     from ..joints import DAG_PATH
     from ..rigs import family_prefix, rig_family, roles_by_topology
+    from ..side_labels import exchanged_sides
 
     check_asf(asf, [file], amc_fps, names=CLI_AMC_NAMES)
     if not file.exists():  # before the suffix: a missing model or knowledge base is missing, not of unknown kind
@@ -92,6 +93,9 @@ def info(
     elif prefix:  # a namespace before every name (Character1_Hips): matched without it
         family += f" (its names read without the prefix {prefix!r} they share; the file's names are kept)"
     rows.append(("rig family", family))
+    sides = exchanged_sides(m)  # a rig mapped left for right, read from the body, not the names
+    if sides is not None:
+        rows.append(("sides", str(sides)))
     rows += [("channels", str(len(m.channel_names()))),
              ("missing", f"{100.0 * miss.mean():.2f} % of joint samples, {plural(int(miss.any(axis=1).sum()), 'frame')} affected"),
              ("sha256", f"{take_digest(m)} (of the samples: a decisions file's \"take\" digest)")]
