@@ -29,9 +29,11 @@ detector of held joints sees them). Cells it changed by less are neither
 required nor wrong: the pairs holding one and no visible cell are not scored.
 The "clean" clips have glitches of
 their own (the CMU 131 BVH right thumb turns 180 deg in one frame, dozens of
-times): cells within 2 frames of a clean-clip step faster than
+times; CMU charleston2 stutters, frames 120-123 and 247-251 repeating the frame
+before bit for bit): cells within 2 frames of a clean-clip step faster than
 ``--glitch-speed`` (5,000 deg/s of local joint rotation, 42 deg per frame at
-120 fps) are of unknown truth, and the (word, joint) pairs holding one are not
+120 fps) or of a stutter, on the joints its end steps by ``--visible-deg``
+or more (``glitches``), are of unknown truth, and the (word, joint) pairs holding one are not
 scored either way unless they hold an injected error's visible cell
 (``ignored_pairs`` says how many pairs hold a glitch).
 
@@ -153,14 +155,28 @@ def truth_mask(clean, bad, mask, visible_deg):
     return mask & (ang >= visible_deg)
 
 
-def glitches(clean, speed_deg_s):
-    """(F, J) cells within 2 frames of a step of the clean clip faster than ``speed_deg_s`` (deg/s)."""
+def glitches(clean, speed_deg_s, visible_deg=5.0):
+    """(F, J) cells of unknown truth in the clean clip: within 2 frames of a step faster than ``speed_deg_s``
+    (deg/s), or of a stutter on the joints it holds visibly still (:func:`mocapkit.cleaning.stutters.find_stutters`:
+    frames repeating the frame before bit for bit while the take moves; the run and the frame after it, on the
+    joints whose step out of the run is ``visible_deg`` or more, so the held rotation may lie that far off).
+    A stutter is a sample the capture lost or a frame too many, the take alone does not tell which (``clean``
+    names it and leaves it): CMU ``charleston2`` frames 247-251 repeat frame 246 while the right knee turns
+    6-7 deg a frame before and after, and the step to frame 252 turns it 31.3 deg, under the speed rule
+    (3,756 deg/s)."""
     from scipy import ndimage
+
+    from mocapkit.cleaning.stutters import find_stutters
 
     fast = baselines.angular_speed(clean) > speed_deg_s
     cells = np.zeros((clean.num_frames, clean.num_joints), dtype=bool)
     cells[:-1] |= fast
     cells[1:] |= fast
+    q = np.asarray(clean.rotations)
+    for s in find_stutters(clean):
+        if s.last + 1 < clean.num_frames:
+            out = np.degrees(R.geodesic_angle(q[s.last + 1], q[s.last])) >= visible_deg  # (J,)
+            cells[s.first : s.last + 2, out] = True
     return ndimage.binary_dilation(cells, structure=np.ones((5, 1), dtype=bool))
 
 
@@ -244,7 +260,7 @@ def dance_at_30_fps(run_detect, seeds: int, errors: int, visible_deg: float, gli
         return None
     clean = load(BANDAI_DANCE)
     names = clean.skeleton.joint_names
-    ign = glitches(clean, glitch_speed) if glitch_speed > 0 else np.zeros((clean.num_frames, clean.num_joints), bool)
+    ign = glitches(clean, glitch_speed, visible_deg) if glitch_speed > 0 else np.zeros((clean.num_frames, clean.num_joints), bool)
     inject = [names[j] for j in ssa.informative_joints([clean], 24) if j != 0]
     own = run_detect(clean, None).flags
     strict = unscored = None
@@ -297,7 +313,7 @@ def main(argv=None):
     breaks_of_takes: dict = {}
     for kind, clip_path, small, large, local_ok in scenarios(args.quick):
         clean = load(clip_path.relative_to(DATA))
-        ign = glitches(clean, args.glitch_speed) if args.glitch_speed > 0 else np.zeros((clean.num_frames, clean.num_joints), bool)
+        ign = glitches(clean, args.glitch_speed, args.visible_deg) if args.glitch_speed > 0 else np.zeros((clean.num_frames, clean.num_joints), bool)
         joints = ssa.informative_joints([clean], 24)
         inject = [clean.skeleton.joint_names[j] for j in joints if j != 0]
         ctx_paths = {"local": [] if local_ok else None, "small": small, "large": large}
