@@ -47,3 +47,22 @@ def test_a_stutter_of_the_clean_clip_is_of_unknown_truth_on_the_joints_it_holds_
     assert not cells[240:260, hand].any()
     # a speed-only rule (glitch speed 0 scores everything) leaves the stutter scored
     assert not bench.glitches(charleston2, 1e9, visible_deg=np.inf)[:, knee].any()
+
+
+def test_a_break_of_the_untouched_take_says_how_far_past_limb_motion_and_the_joints_own_it_lies(shared_data):
+    import mocapkit
+
+    path = shared_data / "cmu_asfamc" / "lambada.amc"
+    if not path.is_file():
+        pytest.skip(f"{path} is missing")
+    bench = load("ssa_detection")
+    take = mocapkit.load(path)
+    flags = np.zeros((take.num_frames, take.num_joints), dtype=bool)
+    hand, toes = (take.skeleton.joint_names.index(n) for n in ("rhand", "ltoes"))
+    flags[580, hand] = True  # the right hand turns 19 then 30 deg in two frames, once in the take
+    flags[1000, toes] = True  # the left toes at an ordinary frame
+    rows = {r["joint"]: r for r in bench.take_breaks(take, flags)}
+    assert rows["rhand"]["resid_deg"] == pytest.approx(24.7, abs=0.05)  # 710,000 deg/s^2 at 120 fps
+    assert rows["rhand"]["resid_p99_deg"] == pytest.approx(1.8, abs=0.05)
+    assert rows["rhand"]["resid_elsewhere"] == 0
+    assert rows["ltoes"]["resid_deg"] < 2 * rows["ltoes"]["resid_p99_deg"] and rows["ltoes"]["resid_elsewhere"] > 2
