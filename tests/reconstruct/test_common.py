@@ -12,6 +12,7 @@ from mocapkit import rotations as R
 from mocapkit import samples
 from mocapkit.database import MotionDatabase
 from mocapkit.features import virtual_markers
+from mocapkit.motion import Motion
 from mocapkit.reconstruct._common import (
     align_about_vertical,
     body_joints,
@@ -137,7 +138,8 @@ def test_the_body_goes_back_under_a_root_held_where_the_bandai_take_holds_it():
 def test_unreal_root_held_or_moving_is_kept_as_the_take_has_it():
     """Unreal's ``root`` above ``pelvis`` (Bandai takes under its names): an in-place take (dataset 2, the root at
     the origin) is held and comes back bit for bit; root motion (dataset 1's dash, the root moving along z) is
-    not held, and :func:`laid_out_like` keeps its root frame by frame only where the body follows the take."""
+    not held, and :func:`laid_out_like` keeps its root frame by frame where the body follows the take, and
+    relative to the pelvis's ground frame where it does not."""
     from mocapkit.reconstruct.output import laid_out_like
     from tests.shared import unreal_spelling
 
@@ -148,7 +150,9 @@ def test_unreal_root_held_or_moving_is_kept_as_the_take_has_it():
     dash = unreal_spelling(mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"))
     assert held_above(dash) is None and np.ptp(dash.root_positions[:, 2]) > 100.0
     floor = whole_motion(body_motion(dash), dash.skeleton, UP)  # the root on the floor under the pelvis
-    assert laid_out_like(floor, dash) is floor
+    carried = laid_out_like(floor, dash)  # the body where the take has it: the root where the take has it too
+    np.testing.assert_allclose(carried.root_positions, dash.root_positions, atol=1e-9)
+    np.testing.assert_allclose(carried.global_positions(), dash.global_positions(), atol=1e-9)
     kept = laid_out_like(floor, dash, follow=True)
     np.testing.assert_allclose(kept.root_positions, dash.root_positions, atol=1e-9)
     np.testing.assert_allclose(kept.global_positions(), dash.global_positions(), atol=1e-9)
@@ -162,3 +166,42 @@ def test_a_pelvis_rooted_rig_holds_nothing_above_the_pelvis():
     m = mocapkit.load(samples.path("12_walk.amc"))[:10]
     assert held_above(m) is None
     assert whole_motion(m, m.skeleton, UP, held_above(m)) is m
+
+
+def _root_in_pelvis_frame(m):
+    """The root's position (F, 3) in the pelvis's ground frame (heading about y and floor position removed), and its
+    global rotation there (F, 4)."""
+    from mocapkit.features import root_frame
+
+    h, t = root_frame(m, UP)
+    inv = R.quaternion_conjugate(h)
+    grot, gpos = m.global_transforms()
+    return R.quaternion_rotate(inv, gpos[:, 0] - t), R.quaternion_multiply(inv, grot[:, 0])
+
+
+def test_a_moving_root_is_carried_with_a_body_placed_elsewhere():
+    """Dataset 1's dash moves its ``joint_Root`` along the floor with the body (2.7 m over 20 frames). A body put
+    elsewhere (turned 90 degrees about the vertical, 5 m away, as a reconstruction from accelerometers integrates
+    it) gets the root where the take has it relative to the pelvis's ground frame, frame by frame, the body's
+    joints unmoved; the database's still root at the origin left it 2-3 m from the body."""
+    from mocapkit.reconstruct.output import carried_above, laid_out_like
+
+    dash = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh")
+    b = body_motion(dash)
+    turn = R.quaternion_from_axis_angle(UP, np.pi / 2)
+    rot = np.array(b.rotations)
+    rot[:, 0] = R.quaternion_multiply(turn, rot[:, 0])
+    moved = Motion(b.skeleton, rot, R.quaternion_rotate(turn, b.root_positions) + [500.0, 0.0, -300.0], b.fps, b.name,
+                   b.translations)
+    still = whole_motion(moved, dash.skeleton, UP, held_above(mocapkit.load(BANDAI)))  # joint_Root at the origin
+    want_p, want_q = _root_in_pelvis_frame(dash)
+    got_p, _ = _root_in_pelvis_frame(still)
+    assert np.linalg.norm(got_p - want_p, axis=-1).min() > 100.0  # cm: the still root is far from the body
+    out = laid_out_like(still, dash)
+    got_p, got_q = _root_in_pelvis_frame(out)
+    np.testing.assert_allclose(got_p, want_p, atol=1e-9)
+    np.testing.assert_allclose(np.abs(np.sum(got_q * want_q, axis=-1)), 1.0, atol=1e-12)
+    np.testing.assert_allclose(out.global_positions()[:, 1:], still.global_positions()[:, 1:], atol=1e-9)
+    np.testing.assert_allclose(out.root_positions[:, 1], 0.0, atol=1e-9)  # on the floor, where the take's is
+    assert carried_above(dash, dash).root_positions == pytest.approx(dash.root_positions, abs=1e-9)
+

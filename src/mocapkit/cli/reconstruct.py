@@ -273,8 +273,8 @@ def reconstruct(
     if isinstance(source, Motion) and source.skeleton.is_compatible(result.skeleton):
         from ..reconstruct.output import laid_out_like
 
-        # the joints above the pelvis (joint_Root) as the input has them; its moving root only where the body
-        # is placed in its frame (markers), not under accelerometers, which do not place it
+        # the joints above the pelvis (joint_Root) as the input has them; a root it moves, frame by frame where
+        # the body is placed in its frame (markers), else relative to the pelvis (accelerometers do not place it)
         result = laid_out_like(result, source, follow=kind != "accelerometers")
     report, errors = "", {}
     if ref is not None:

@@ -18,7 +18,7 @@ import numpy as np
 from ..errors import SkeletonError
 from ..joints import unit_scale_cm
 
-__all__ = ["described_arrays", "kept_licence", "laid_out_like", "save_reconstruction", "UNIT_NAMES"]
+__all__ = ["carried_above", "described_arrays", "kept_licence", "laid_out_like", "save_reconstruction", "UNIT_NAMES"]
 
 #: Centimetres per unit -> the unit's name, for ``length_unit``.
 UNIT_NAMES = {0.1: "mm", 1.0: "cm", 2.54: "in", 10.0: "dm", 30.48: "ft", 100.0: "m"}
@@ -67,24 +67,56 @@ def laid_out_like(m, take, follow: bool = False):
 
     A game rig's file is written laid out as its input: where ``take`` holds those joints still
     (:func:`mocapkit.reconstruct._common.held_above`: the Bandai Namco ``joint_Root`` at the origin of
-    dataset 2), there, ``Hips``' position channels carrying the world translation; where it moves them (root
-    motion, the ``joint_Root`` of dataset 1) and ``follow`` (the body placed in ``take``'s frame, as markers
-    place it) with ``m``'s frames, ``take``'s own in every frame. ``m`` itself otherwise: the pelvis is the
-    root or has no position channels, or the root follows the body on the floor
-    (:func:`~mocapkit.reconstruct._common.whole_motion`).
+    dataset 2), there, ``Hips``' position channels carrying the world translation. Where it moves them (root
+    motion: the ``joint_Root`` of four dataset-1 takes travels on the floor with the body) and ``take`` is a
+    Motion of ``m``'s frames with those joints in every frame: with ``follow`` (the body placed in ``take``'s
+    frame, as markers place it) ``take``'s own, frame by frame; without it (accelerometers and multilinear
+    models, which do not place the body) where they are in ``take`` relative to its pelvis's ground frame
+    (heading and ground position, :func:`mocapkit.features.root_frame`), put in ``m``'s pelvis's ground
+    frame (:func:`carried_above`). ``m`` itself otherwise: the pelvis is the root or has no position
+    channels, or ``take`` cannot say (another length, a gap in those joints).
     """
     from ._common import body_joints, body_motion, held_above, whole_motion
 
     held = held_above(take)
-    if held is None and follow and getattr(take, "num_frames", -1) == m.num_frames and take.num_frames:
+    if held is None and getattr(take, "num_frames", -1) == m.num_frames and take.num_frames:
         above = np.setdiff1d(np.arange(take.num_joints), body_joints(take.skeleton))
         whole = [take.root_positions, take.rotations[:, above]]
         if take.translations is not None:
             whole.append(take.translations[:, above])
-        held = take if all(np.isfinite(a).all() for a in whole) else None  # a gap there: nothing to keep
+        if above.size and all(np.isfinite(a).all() for a in whole):  # a gap there: nothing to keep
+            held = take if follow else carried_above(take, m)
     if held is None:
         return m
     return whole_motion(body_motion(m), m.skeleton, np.zeros(3), held)
+
+
+def carried_above(take, m):
+    """``take`` (a Motion whose joints above the pelvis move: root motion) with its root moved, frame by frame, from
+    ``take``'s pelvis's ground frame into ``m``'s (a reconstruction of ``take``'s frames on its joints).
+
+    The ground frame (:func:`mocapkit.features.root_frame`) is the pelvis's heading about the vertical and its
+    position on the floor; the vertical is ``take``'s (:func:`mocapkit.features.find_up_axis`). With ``(H_t,
+    g_t)`` that frame in ``take`` and ``(H_m, g_m)`` in ``m``, the root's global rotation ``q`` and position ``p``
+    become ``H_m H_t^-1 q`` and ``H_m H_t^-1 (p - g_t) + g_m``: a root ``take`` keeps 3 cm behind its pelvis on
+    the floor, turned as the body, is 3 cm behind ``m``'s, turned as ``m``'s body. The joints between the root
+    and the pelvis keep ``take``'s local rotations and offsets. Returns a Motion on ``take``'s skeleton of its
+    frames (positions in ``take``'s length unit) for :func:`~mocapkit.reconstruct._common.whole_motion`.
+    """
+    from .. import rotations as R
+    from ..features import find_up_axis, root_frame
+    from ..motion import Motion
+
+    up = find_up_axis(take.skeleton, take.global_positions())
+    h_t, g_t = root_frame(take, up)
+    h_m, g_m = root_frame(m, up)
+    s = 1.0 if m.skeleton is take.skeleton else _unit(m)[0] / _unit(take)[0]  # m's unit -> take's
+    s = s if np.isfinite(s) else 1.0
+    turn = R.quaternion_multiply(h_m, R.quaternion_conjugate(h_t))
+    rot = np.array(take.rotations, dtype=np.float64)
+    rot[:, 0] = R.quaternion_multiply(turn, rot[:, 0])
+    root = R.quaternion_rotate(turn, np.asarray(take.root_positions, dtype=np.float64) - g_t) + g_m * s
+    return Motion(take.skeleton, rot, root, take.fps, take.name, take.translations)
 
 
 def save_reconstruction(motion, path, method: str, *, asf=None, licence: str | None = None) -> Path:
