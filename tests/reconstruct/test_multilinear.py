@@ -308,3 +308,55 @@ def test_held_out_actor_beats_the_mean(shared_data):
     e_fit = metrics.joint_position_rms(test, out, root_relative="frame")
     e_mean = metrics.joint_position_rms(test, mean, root_relative="frame")
     assert e_fit < e_mean
+
+
+# -- a rig whose pelvis is not the root (Bandai Namco: joint_Root on the floor, Hips moves) -------------------
+
+
+@pytest.fixture(scope="module")
+def bandai_runs():
+    data = Path(__file__).resolve().parents[1] / "data"
+    return [mocapkit.load(data / n) for n in ("dataset-2_run_active_049.bvh", "dataset-1_run_masculinity_001.bvh")]
+
+
+@pytest.fixture(scope="module")
+def bandai_model(bandai_runs):
+    return MultilinearModel(modes=("style",)).fit(bandai_runs, [("active",), ("masculinity",)])
+
+
+def _ground_travel(m: "mocapkit.Motion") -> float:
+    """How far (file units) the pelvis (Hips) ends from where it starts, on the floor (x, z)."""
+    p = m.global_positions()[:, m.skeleton.index("Hips")]
+    return float(np.linalg.norm((p[-1] - p[0])[[0, 2]]))
+
+
+def test_a_bandai_model_is_of_the_body_with_joint_root_held_on_the_floor(bandai_model, bandai_runs):
+    """Two runs on the game rig (joint_Root at the origin, Hips carrying the translation): the tensors hold the body
+    from Hips down and Hips' trajectory, the vertical is y (the rest pose lies along x), and the reference run's
+    weights give the run back: its body, its 7.5 m on the floor, joint_Root at the origin in every frame. A tensor
+    of joint_Root held no translation at all: the pelvis stood still and the root swung about x."""
+    run = bandai_runs[0]
+    assert bandai_model.tensor_.reference == run.name
+    np.testing.assert_array_equal(bandai_model.up_, UP)
+    assert bandai_model.tensor_.rotations.shape[1] == run.num_joints - 1  # Hips and below
+    out = bandai_model.synthesize(bandai_model.clip_weights(["active"]), run.skeleton)
+    assert out.skeleton.joint_names == run.skeleton.joint_names and out.num_frames == run.num_frames
+    np.testing.assert_array_equal(out.root_positions, 0.0)
+    np.testing.assert_array_equal(out.rotations[:, 0], np.broadcast_to([1.0, 0.0, 0.0, 0.0], (run.num_frames, 4)))
+    assert metrics.joint_position_rms(run, out, root_relative="heading") < 1e-3  # cm
+    assert _ground_travel(out) == pytest.approx(_ground_travel(run), rel=1e-6)
+    assert _ground_travel(run) > 700.0
+
+
+def test_a_bandai_run_fitted_to_its_own_accelerometers_travels_with_its_root_on_the_floor(bandai_model, bandai_runs):
+    run = bandai_runs[0]
+    sensors = default_sensors(run.skeleton, up_axis="y")
+    grot, _ = run.global_transforms()
+    orient = R.quaternion_multiply(grot[:, [run.skeleton.index(s.joint) for s in sensors]],
+                                   np.stack([s.rotation for s in sensors]))
+    w, out = bandai_model.fit_readings(virtual_accelerometers(run, sensors), run.fps, sensors=sensors,
+                                       orientations=orient, skeleton=run.skeleton, maxiter=30)
+    assert w[0][0] > 0.95  # its own style
+    assert metrics.joint_position_rms(run, out, root_relative="heading") < 0.2  # cm
+    assert _ground_travel(out) == pytest.approx(_ground_travel(run), rel=0.01)
+    np.testing.assert_array_equal(out.root_positions, 0.0)

@@ -7,11 +7,25 @@ frame x the natural modes (``("actor", "repetition")`` by default; the thesis
 has style x actor x repetition), and the root positions ``Theta_p`` with
 modes DOF (3) x frame x the natural modes. :mod:`.multilinear` decomposes
 them (:mod:`.hosvd`) into a multilinear model.
+
+Rigs: the tensors hold the *body*, the pelvis (found by its role,
+:func:`mocapkit.rigs.pelvis_index`) and the joints below it
+(:func:`~mocapkit.reconstruct._common.body_motion`): ``Theta_p`` is the
+pelvis's trajectory and the pelvis's rotation is its global one. On
+Acclaim and most BVH rigs that is the whole skeleton. On the Bandai Namco game
+rig the root ``joint_Root`` stays on the floor (or follows the body on it) and
+``Hips`` carries the translation; a tensor of its root would hold no
+translation at all. The joints above the pelvis are kept as the clips hold
+them (:attr:`MotionTensor.held`, :func:`~mocapkit.reconstruct._common.held_above`)
+and put back on every motion the tensor gives
+(:func:`~mocapkit.reconstruct._common.whole_motion`). The vertical axis
+comes from the clips' frames (:func:`~mocapkit.features.find_up_axis`), not
+from the rest pose, which lies along x on that rig.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
@@ -20,13 +34,14 @@ from scipy.ndimage import gaussian_filter1d
 from tqdm.auto import tqdm
 
 from .. import rotations as R
-from ..features import detect_up_axis, feature_set, parse_up_axis, root_frame
+from ..features import feature_set, find_up_axis, parse_up_axis, root_frame
 from ..motion import Motion, Skeleton
+from ._common import body_motion, body_skeleton, held_above, whole_motion
 from ..progress import bar_disabled, bar_size
 from ..search.dtw import dtw
 from ..words import plural
 
-__all__ = ["MotionTensor", "hdm05_labels", "motion_tensor", "time_map", "FIRST_NATURAL_Q", "FIRST_NATURAL_P"]
+__all__ = ["MotionTensor", "hdm05_labels", "held_by_all", "motion_tensor", "time_map", "FIRST_NATURAL_Q", "FIRST_NATURAL_P"]
 
 #: Index of the first natural mode in the rotation tensor (DOF, joint, frame, natural...).
 FIRST_NATURAL_Q = 3
@@ -43,11 +58,13 @@ class MotionTensor:
 
     Attributes
     ----------
-    rotations : float array (4, J, L, d_1, ..., d_n)
+    rotations : float array (4, B, L, d_1, ..., d_n)
         ``Theta_q``: DOF (w, x, y, z) x joint x frame x natural modes; local
-        joint rotations, one hemisphere per joint, root heading normalised.
+        rotations of the B body joints (the pelvis and the joints below it,
+        pelvis first: its global rotation), one hemisphere per joint, the
+        pelvis's heading normalised.
     root : float array (3, L, d_1, ..., d_n)
-        ``Theta_p``: root positions, file units, first aligned frame's
+        ``Theta_p``: pelvis positions, file units, first aligned frame's
         ground-plane position at the origin.
     modes : tuple of str (n,)
         Names of the natural modes.
@@ -56,13 +73,21 @@ class MotionTensor:
     observed : bool array (d_1, ..., d_n)
         Cells filled by a clip (False: filled by ``missing="mean"``).
     skeleton : Skeleton
-        The reference clip's skeleton (all clips share its topology).
+        The reference clip's skeleton (all clips share its topology), the
+        joints above the pelvis included.
     fps : float
         Frame rate of the model time axis.
     reference : str
         Name of the clip every other clip was aligned to.
     names : tuple of str
         Clip name per observed cell, in ``np.argwhere(observed)`` order.
+    up : float array (3,)
+        The unit vertical axis of the clips' frames.
+    held : Motion or None
+        The joints above the pelvis as every clip holds them still (one frame,
+        :func:`~mocapkit.reconstruct._common.held_above`: the Bandai Namco
+        ``joint_Root`` at the origin); None when the pelvis is the root or the
+        clips move them (the root then goes on the ground under the pelvis).
     """
 
     rotations: np.ndarray
@@ -74,6 +99,8 @@ class MotionTensor:
     fps: float
     reference: str
     names: tuple
+    up: np.ndarray = field(default_factory=lambda: np.array([0.0, 1.0, 0.0]))
+    held: Motion | None = None
 
     @property
     def num_frames(self) -> int:
@@ -85,10 +112,31 @@ class MotionTensor:
         return tuple(self.rotations.shape[FIRST_NATURAL_Q:])
 
     def clip(self, index: Sequence[int]) -> Motion:
-        """The aligned clip (or filled cell) at natural-mode ``index`` as a Motion at :attr:`fps`."""
+        """The aligned clip (or filled cell) at natural-mode ``index`` as a Motion at :attr:`fps` on :attr:`skeleton`."""
         idx = (Ellipsis,) + tuple(int(i) for i in index)
         q = np.moveaxis(self.rotations[idx], (0, 1, 2), (2, 1, 0))
-        return Motion(self.skeleton, R.quaternion_normalize(q), self.root[idx].T, self.fps, name=f"cell{tuple(index)}")
+        body = Motion(body_skeleton(self.skeleton), R.quaternion_normalize(q), self.root[idx].T, self.fps, name=f"cell{tuple(index)}")
+        return whole_motion(body, self.skeleton, self.up, self.held)
+
+
+def held_by_all(clips: Sequence[Motion]) -> Motion | None:
+    """The joints above the pelvis as every clip of ``clips`` (one topology) holds them still, or None.
+
+    :func:`~mocapkit.reconstruct._common.held_above` over the clips' frames
+    taken together: a one-frame Motion on the first clip's skeleton where
+    every clip holds those joints at one pose (the Bandai Namco dataset-2
+    ``joint_Root`` at the origin), None where the pelvis is the root, or where
+    any clip moves them or holds them elsewhere (dataset 1's ``joint_Root``
+    that travels with the body in a few takes).
+    """
+    first = clips[0]
+    tr = None
+    if all(c.translations is not None for c in clips):
+        tr = np.concatenate([np.asarray(c.translations, dtype=np.float64) for c in clips])
+    together = Motion(first.skeleton, np.concatenate([np.asarray(c.rotations, dtype=np.float64) for c in clips]),
+                      np.concatenate([np.asarray(c.root_positions, dtype=np.float64) for c in clips]), first.fps,
+                      first.name, tr)
+    return held_above(together)
 
 
 def hdm05_labels(clips: Sequence) -> list[tuple[str, int]]:
@@ -174,9 +222,10 @@ def motion_tensor(
     worse fit here), the warping path is turned into a smooth monotone time map
     (mean clip frame per reference frame, Gaussian-smoothed) and the clip
     is sampled at the mapped times (slerp) on ``frames`` points of the
-    reference's time axis. Roots are normalised (first frame at the origin,
-    heading to the forward axis) and each joint's quaternions are put in the
-    reference's hemisphere.
+    reference's time axis. The tensors hold each clip's body (the pelvis
+    and the joints below it, module docstring); the pelvis is normalised
+    (first frame's ground position at the origin, heading to the forward
+    axis) and each joint's quaternions are put in the reference's hemisphere.
 
     Parameters
     ----------
@@ -202,7 +251,8 @@ def motion_tensor(
         Standard deviation in seconds of the Gaussian that smooths each DTW
         time map (a kinked time map adds spurious accelerations).
     up_axis : optional
-        The vertical; detected from the skeleton when None.
+        The vertical; found from the clips' frames when None
+        (:func:`~mocapkit.features.find_up_axis`).
     progress : bool
         Show a progress bar over the clips.
 
@@ -245,7 +295,10 @@ def motion_tensor(
     for c in clips:
         if c.num_frames < 2 or not (np.isfinite(c.rotations).all() and np.isfinite(c.root_positions).all()):
             raise ValueError(f"clip {c.name!r} has fewer than 2 frames or missing (NaN) values; fill gaps first")
-    up = detect_up_axis(sk0) if up_axis is None else parse_up_axis(up_axis)
+    if up_axis is None:
+        up = find_up_axis(sk0, np.concatenate([c.global_positions() for c in clips]))
+    else:
+        up = parse_up_axis(up_axis)
 
     res = [c.resample(fps) for c in clips]
     lengths = np.array([m.num_frames for m in res])
@@ -266,8 +319,9 @@ def motion_tensor(
         feat = feature_set(m, "F15", up_axis=up, scale_cm=True).values
         _, path = dtw(feat, ref_feat)
         t = np.interp(grid_t, np.arange(n_ref), time_map(path, n_ref, warp_smoothing * fps))
-        rot, pos = _sample(R.quaternion_continuity(m.rotations), m.root_positions, t)
-        rot, pos = _normalize_root(Motion(m.skeleton, rot, pos, fps), up)
+        b = body_motion(m)
+        rot, pos = _sample(R.quaternion_continuity(b.rotations), b.root_positions, t)
+        rot, pos = _normalize_root(Motion(b.skeleton, rot, pos, fps), up)
         aligned.append((R.quaternion_continuity(rot), pos))
     ref_rot = aligned[reference][0]
     for i, (rot, pos) in enumerate(aligned):
@@ -277,7 +331,7 @@ def motion_tensor(
     entries = [tuple(sorted({lab[k] for lab in labels})) for k in range(len(modes))]
     shape = tuple(len(e) for e in entries)
     index = [tuple(entries[k].index(lab[k]) for k in range(len(modes))) for lab in labels]
-    J = sk0.num_joints
+    J = aligned[0][0].shape[1]
     Q = np.zeros((4, J, L) + shape)
     P = np.zeros((3, L) + shape)
     observed = np.zeros(shape, dtype=bool)
@@ -327,4 +381,6 @@ def motion_tensor(
         fps=fps,
         reference=clips[reference].name,
         names=names,
+        up=up,
+        held=held_by_all(clips),
     )

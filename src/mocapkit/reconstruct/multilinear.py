@@ -19,7 +19,7 @@ form (:func:`acceleration_distance`).
 
 Departures from the thesis, all stated where they happen:
 
-* each clip's root is normalised before stacking (ground-plane position of
+* each clip's pelvis is normalised before stacking (ground-plane position of
   the first aligned frame at the origin, its heading turned to the fixed
   forward axis) and the quaternions are put in one hemisphere per joint
   (against the reference clip), so that linear combinations of quaternion
@@ -40,6 +40,18 @@ Departures from the thesis, all stated where they happen:
   mean of the same actor's repetitions) or made complete by
   ``missing="drop"`` (only the repetitions every actor has).
 
+Rigs: the model is of the *body*, the pelvis (found by its role,
+:func:`mocapkit.rigs.pelvis_index`) and the joints below it, as the motion
+tensors hold it (:mod:`.motion_tensor`): ``Theta_p`` is the pelvis's
+trajectory, the sensors' accelerations are simulated on the body, and the
+joints above the pelvis are put back on every motion the model gives
+(:func:`~mocapkit.reconstruct._common.whole_motion`) as the training clips
+hold them (the Bandai Namco ``joint_Root`` at the origin, ``Hips``' position
+channels carrying the translation), else on the ground under the pelvis. The
+vertical is the clips' (:func:`~mocapkit.features.find_up_axis`). A take's
+own layout, a root it moves with the body included, is given back by
+:func:`mocapkit.reconstruct.output.laid_out_like`.
+
 The thesis calls the approach restricted (sec. 2.6): one tensor per motion
 class, clips of the same "semantic length" (steps, repetitions), and the
 recording must be of that class too.
@@ -56,11 +68,12 @@ from scipy.optimize import minimize
 from tqdm.auto import tqdm
 
 from .. import rotations as R
-from ..features import Sensor, default_sensors, detect_up_axis, five_point_derivative, parse_up_axis, virtual_markers
+from ..features import Sensor, default_sensors, five_point_derivative, parse_up_axis, virtual_markers
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..progress import bar_disabled, bar_size
 from ..search.dtw import dtw
 from ..words import plural
+from ._common import body_skeleton, whole_motion
 from .hosvd import hosvd, mode_product, reconstruct_tensor, unfold
 from .motion_tensor import FIRST_NATURAL_P, FIRST_NATURAL_Q, MotionTensor, hdm05_labels, motion_tensor, time_map
 
@@ -254,7 +267,7 @@ class MultilinearModel:
         self.skeleton_ = tensor.skeleton
         self.modes_ = tensor.modes
         self.entries_ = tensor.entries
-        self.up_ = detect_up_axis(tensor.skeleton) if self.up_axis is None else parse_up_axis(self.up_axis)
+        self.up_ = np.asarray(tensor.up, dtype=np.float64) if self.up_axis is None else parse_up_axis(self.up_axis)
         rq = [ranks.get(n) for n in names_q]
         names_p = ("dof", "frame") + tensor.modes
         rp = [ranks.get(n) for n in names_p]
@@ -346,11 +359,17 @@ class MultilinearModel:
 
         Returns
         -------
-        Motion with ``frames`` frames at the model fps, root normalised.
+        Motion with ``frames`` frames at the model fps, the pelvis normalised,
+        the joints above it as the training clips hold them (module docstring).
         """
         w = self._weights(weights)
         q, p = self._synth_arrays(w)
-        return Motion(self._skeleton(skeleton), q, p, self.tensor_.fps, name="multilinear")
+        return self._whole(q, p, self._skeleton(skeleton), self.tensor_.fps)
+
+    def _whole(self, q: np.ndarray, p: np.ndarray, skeleton: Skeleton, fps: float) -> Motion:
+        """Body rotations (F, B, 4) and pelvis positions (F, 3) as a Motion on the whole ``skeleton``."""
+        body = Motion(body_skeleton(skeleton), q, p, fps, name="multilinear")
+        return whole_motion(body, skeleton, self.up_, self.tensor_.held)
 
     def _skeleton(self, skeleton):
         if skeleton is None:
@@ -374,10 +393,6 @@ class MultilinearModel:
         phq = np.moveaxis(np.tensordot(W, self.phi_q_, axes=(1, 2)), 0, 2)
         php = np.moveaxis(np.tensordot(W, self.phi_p_, axes=(1, 1)), 0, 1)
         return phq, php
-
-    def _sensor_acc(self, q, p, sensors, skeleton, fps, scale):
-        m = Motion(skeleton, q, p, fps)
-        return five_point_derivative(_sensor_positions(m, sensors) * scale, fps, order=2, axis=0)
 
     def fit_readings(
         self,
@@ -431,8 +446,10 @@ class MultilinearModel:
             lambda per natural mode (affine: each sums to one).
         motion : Motion
             N frames at ``fps`` on the recording's time line, heading turned
-            into the recording's world frame (root translation starts at the
-            ground-plane origin: accelerations do not see it).
+            into the recording's world frame (the pelvis's translation starts
+            at the ground-plane origin: accelerations do not see it), on
+            ``skeleton``, the joints above the pelvis as the training clips
+            hold them (module docstring).
         info : dict, only with ``return_info``
             ``distance`` (eq. 2.10, (m/s^2)^2 summed), ``relative_distance``
             (divided by the readings' sum of squares), ``theta`` (radians),
@@ -444,6 +461,7 @@ class MultilinearModel:
         if not np.isfinite(fps) or fps <= 0:
             raise ValueError(f"fps must be a positive number, got {fps!r}")
         sk = self._skeleton(skeleton)
+        body = body_skeleton(sk)  # the sensors ride on the body the model animates
         if sensors is None:
             sensors = default_sensors(sk, up_axis=self.up_)
         sensors = list(sensors)
@@ -491,7 +509,7 @@ class MultilinearModel:
             """Sensor accelerations (K, n_fit, S, 3) for K weight sets, one forward-kinematics pass."""
             qs, ps = zip(*(self._synth_arrays(w, phq, php) for w in ws))
             K = len(ws)
-            m = Motion(sk, np.concatenate(qs), np.concatenate(ps), rate)
+            m = Motion(body, np.concatenate(qs), np.concatenate(ps), rate)
             pos = _sensor_positions(m, sensors).reshape(K, n_fit, len(sensors), 3)
             return five_point_derivative(pos * scale, rate, order=2, axis=1)
 
@@ -562,7 +580,7 @@ class MultilinearModel:
         q = np.array(q)
         q[:, 0] = R.quaternion_multiply(heading, q[:, 0])
         p = R.quaternion_rotate(heading, p)
-        motion = Motion(sk, q, p, fps, name="multilinear")
+        motion = self._whole(q, p, sk, fps)
         if not return_info:
             return w, motion
         info = {
