@@ -183,7 +183,7 @@ def test_a_moving_root_is_carried_with_a_body_placed_elsewhere():
     """Dataset 1's dash moves its ``joint_Root`` along the floor with the body (2.7 m over 20 frames). A body put
     elsewhere (turned 90 degrees about the vertical, 5 m away, as a reconstruction from accelerometers integrates
     it) gets the root where the take has it relative to the pelvis's ground frame, frame by frame, the body's
-    joints unmoved; the database's still root at the origin left it 2-3 m from the body."""
+    joints unmoved, not at the origin where the database's takes hold it, metres from the body."""
     from mocapkit.reconstruct.output import carried_above, laid_out_like
 
     dash = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh")
@@ -205,3 +205,17 @@ def test_a_moving_root_is_carried_with_a_body_placed_elsewhere():
     np.testing.assert_allclose(out.root_positions[:, 1], 0.0, atol=1e-9)  # on the floor, where the take's is
     assert carried_above(dash, dash).root_positions == pytest.approx(dash.root_positions, abs=1e-9)
 
+
+
+def test_a_moving_root_is_not_carried_where_the_take_misses_its_pelvis():
+    """A gap in the dash's Hips leaves no ground frame to carry the root from: the result comes back as it was,
+    no root made up (NaN) in the gap."""
+    from mocapkit.reconstruct.output import carried_above, laid_out_like
+
+    dash = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh")
+    still = whole_motion(body_motion(dash), dash.skeleton, UP, held_above(mocapkit.load(BANDAI)))
+    rot = np.array(dash.rotations)
+    rot[5:8, dash.skeleton.index("Hips")] = np.nan
+    gappy = Motion(dash.skeleton, rot, dash.root_positions, dash.fps, dash.name, dash.translations)
+    assert carried_above(gappy, still) is None
+    assert laid_out_like(still, gappy) is still

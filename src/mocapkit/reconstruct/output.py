@@ -74,7 +74,8 @@ def laid_out_like(m, take, follow: bool = False):
     models, which do not place the body) where they are in ``take`` relative to its pelvis's ground frame
     (heading and ground position, :func:`mocapkit.features.root_frame`), put in ``m``'s pelvis's ground
     frame (:func:`carried_above`). ``m`` itself otherwise: the pelvis is the root or has no position
-    channels, or ``take`` cannot say (another length, a gap in those joints).
+    channels, or ``take`` cannot say (another length, a gap in those joints or, without ``follow``, in either
+    pelvis).
     """
     from ._common import body_joints, body_motion, held_above, whole_motion
 
@@ -101,7 +102,8 @@ def carried_above(take, m):
     become ``H_m H_t^-1 q`` and ``H_m H_t^-1 (p - g_t) + g_m``: a root ``take`` keeps 3 cm behind its pelvis on
     the floor, turned as the body, is 3 cm behind ``m``'s, turned as ``m``'s body. The joints between the root
     and the pelvis keep ``take``'s local rotations and offsets. Returns a Motion on ``take``'s skeleton of its
-    frames (positions in ``take``'s length unit) for :func:`~mocapkit.reconstruct._common.whole_motion`.
+    frames (positions in ``take``'s length unit) for :func:`~mocapkit.reconstruct._common.whole_motion`, or None
+    where a frame of either pelvis is missing (NaN): no root is made up there.
     """
     from .. import rotations as R
     from ..features import find_up_axis, root_frame
@@ -116,6 +118,8 @@ def carried_above(take, m):
     rot = np.array(take.rotations, dtype=np.float64)
     rot[:, 0] = R.quaternion_multiply(turn, rot[:, 0])
     root = R.quaternion_rotate(turn, np.asarray(take.root_positions, dtype=np.float64) - g_t) + g_m * s
+    if not (np.isfinite(root).all() and np.isfinite(rot[:, 0]).all()):
+        return None
     return Motion(take.skeleton, rot, root, take.fps, take.name, take.translations)
 
 
