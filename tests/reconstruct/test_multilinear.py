@@ -333,8 +333,8 @@ def _ground_travel(m: "mocapkit.Motion") -> float:
 def test_a_bandai_model_is_of_the_body_with_joint_root_held_on_the_floor(bandai_model, bandai_runs):
     """Two runs on the game rig (joint_Root at the origin, Hips carrying the translation): the tensors hold the body
     from Hips down and Hips' trajectory, the vertical is y (the rest pose lies along x), and the reference run's
-    weights give the run back: its body, its 7.5 m on the floor, joint_Root at the origin in every frame. A tensor
-    of joint_Root held no translation at all: the pelvis stood still and the root swung about x."""
+    weights give the run back: its body, its 7.5 m on the floor, joint_Root at the origin in every frame (a tensor
+    of joint_Root would hold no translation: the pelvis would stand still)."""
     run = bandai_runs[0]
     assert bandai_model.tensor_.reference == run.name
     np.testing.assert_array_equal(bandai_model.up_, UP)

@@ -96,7 +96,10 @@ Rigs. The synthesis poses the body: the pelvis (found by its role,
 takes hold them (:func:`~mocapkit.reconstruct._common.held_above`: the Bandai
 Namco ``joint_Root`` at the origin, ``Hips`` carrying the translation), else
 the root on the ground under the pelvis
-(:func:`~mocapkit.reconstruct._common.whole_motion`).
+(:func:`~mocapkit.reconstruct._common.whole_motion`). A take's own layout, a
+root it moves with the body included, is given back by
+:func:`mocapkit.reconstruct.output.laid_out_like` (``mocapkit reconstruct``
+does it for a motion file given as the readings' source).
 
 Missing readings. A sample with any non-finite value holds the previous pose
 (state unchanged, the graph not updated); before the first valid sample the
