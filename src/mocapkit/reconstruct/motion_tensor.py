@@ -36,10 +36,10 @@ from tqdm.auto import tqdm
 from .. import rotations as R
 from ..features import feature_set, find_up_axis, parse_up_axis, root_frame
 from ..motion import Motion, Skeleton
-from ._common import body_motion, body_skeleton, held_above, whole_motion
 from ..progress import bar_disabled, bar_size
 from ..search.dtw import dtw
 from ..words import plural
+from ._common import body_motion, body_skeleton, held_above, whole_motion
 
 __all__ = ["MotionTensor", "hdm05_labels", "held_by_all", "motion_tensor", "time_map", "FIRST_NATURAL_Q", "FIRST_NATURAL_P"]
 
