@@ -806,3 +806,27 @@ def test_off_path_of_all_events_at_once_is_the_one_at_a_time_reference(walk, see
     want = _off_path_one_at_a_time(rot[:, j], first, last)
     assert np.array_equal(got[0], want[0]) and np.array_equal(got[1], want[1])
     assert all(len(a) == 0 for a in cues.off_path(rot[:, j], first[:0], last[:0]))
+
+
+def test_a_knee_stepping_with_its_thigh_is_motion_though_a_swap_pairs_the_thighs_steps_otherwise(shared_data):
+    """HDM05 ``HDM_dg_lieDownFloor_011``: at frames 92 and 151 the right thigh turns half a turn about its bone as
+    the knee bends the other way (the solver's other solution: knee and ankle stay on their path), two joints
+    stepping at once, which the offset rule leaves alone on the untouched take. With the thighs swapped at
+    95-112 (``corrupt --kind errors --seed 1001``) the thigh's steps pair with the swap's and the knee's pair
+    stands alone; repaired as an offset, the knee would move 76 deg off the take over 93-151 (the foot by about a
+    shin's length). The knee's steps are still the thigh's: nothing is flagged there; the swap still is."""
+    from mocapkit.cleaning.whole_take import detect_take, take_params
+    from mocapkit.io.takes import load_take
+
+    root = shared_data / "hdm05_asfamc"
+    clean = load_take(root / "HDM_dg_lieDownFloor_011_120.amc", asf=root / "HDM_dg.asf")
+    bad, mask, _ = corrupt.corrupt(clean, kind="errors", seed=1001)
+    knee, thigh = clean.skeleton.index("rtibia"), clean.skeleton.index("lfemur")
+    assert mask[95:112, thigh].all() and not mask[:, knee].any()
+    det = detect_take(bad, None, params=take_params()).detection
+    assert not det.flags[:, knee].any() and not det.offsets[:, knee].any()
+    assert det.flags[95:112, thigh].all()
+    out, _ = ssa.repair_with_left(bad, det, None, foot_skate=False)
+    assert np.array_equal(out.rotations[:, knee], bad.rotations[:, knee])
+    err = np.degrees(R.geodesic_angle(out.rotations[95:112, thigh], clean.rotations[95:112, thigh]))
+    assert err.mean() < 2.0, err

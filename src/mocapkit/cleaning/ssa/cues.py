@@ -565,7 +565,8 @@ def offsets_from_residuals(q, resid, fps, jump_deg, max_s, min_offset_deg, joint
         taken = {k for pair in strict for k in pair}
         loose = _paired_events(starts, longest, loose_pair, skip=taken)
         pairs[j] = sorted([(starts[k], starts[m]) for k, m in strict] + loose)
-    return _single_joint_offsets(pairs, F, J, partner)
+    events = {int(k): event_bounds(np.flatnonzero(breaks[:, k]))[0] for k in np.flatnonzero(breaks.any(axis=0))}
+    return _single_joint_offsets(pairs, F, J, partner, events)
 
 
 def _undoing_pairs(starts, longest: int, undoes, apart) -> list[tuple[int, int]]:
@@ -624,28 +625,37 @@ def unshared_offsets(offsets: np.ndarray, digression: np.ndarray, min_offset_deg
     return out
 
 
-def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | None) -> np.ndarray:
+def _single_joint_offsets(pairs: dict, F: int, J: int, partner: np.ndarray | None, events: dict) -> np.ndarray:
     """(F, J) bool from each joint's paired events ``{j: [(a, b), ...]}``, leaving out the pairs another joint
-    (not its mirror partner) shares: both its steps within a frame of this joint's two steps.
+    (not its mirror partner) shares: it breaks within a frame of both steps (``events``, ``{k: first frames}``:
+    every joint's break events, paired or not, a joint's counting with its mirror partner's).
 
     A drift, a flip or a lost marker moves one joint's rotation; a limb or a
     body that steps off and back at once (the hip, knee and ankle of a leg
     bouncing at the bottom of a squat, the upper arm and wrist of a throw)
     moves several joints at the same frames, and that is motion. A mirror
-    partner stepping with it is left to :func:`side_swaps`.
+    partner stepping with it is left to :func:`side_swaps`. The other joint's steps need not pair with each
+    other, and its partner's count: an error of its own between them pairs them otherwise, and a left/right
+    swap over one moves it into the partner (HDM05 ``HDM_dg_lieDownFloor_011``: the thigh turns half a turn
+    about its bone as the knee bends the other way, frames 92-151, the joints' positions on their path; with
+    a thigh swap at 95-112 the knee's steps pair alone, and repaired they move the foot about a shin length off it).
     """
     out = np.zeros((F, J), dtype=bool)
     for j, pj in pairs.items():
+        others = [k for k in events if k != j and (partner is None or k != partner[j])]
         for a, b in pj:
             shared = any(
-                abs(a - a2) <= 1 and abs(b - b2) <= 1
-                for k, pk in pairs.items()
-                if k != j and (partner is None or k != partner[j])
-                for a2, b2 in pk
+                _breaks_near(events, k, partner, a) and _breaks_near(events, k, partner, b) for k in others
             )
             if not shared:
                 out[a + 1 : b + 1, j] = True  # a step from f to f + 1 breaks at both
     return out
+
+
+def _breaks_near(events: dict, k: int, partner: np.ndarray | None, f: int) -> bool:
+    """Whether joint ``k`` or its mirror partner has a break event starting within a frame of frame ``f``."""
+    own = {k} if partner is None else {k, int(partner[k])}
+    return any(np.any(np.abs(np.asarray(events.get(i, ()), dtype=np.int64) - f) <= 1) for i in own)
 
 
 def confirm_flags(
