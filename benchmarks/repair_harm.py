@@ -28,6 +28,42 @@ Collections (tune: the rules may be chosen on them; check: judge there, never tu
 * ``bandai`` (check): 12 Bandai Namco takes (every 200th of the 2,675, sorted by path), clean and seed 2001
   (``--quick``: 4).
 
+Where the worse runs are (every collection, ``--json --no-save``): cmu 12 of 40, hdm05 19 of 397, hdm05_mm 0 of
+88, bandai 1 of 55. 27 of the 32 lie where the "clean" take has a glitch of its own, which the repair takes away;
+against the take that counts as worse, and it is a repair (``(c)``: under every seed that leaves it, clean or not):
+
+=====================================================  ==================================================
+run (frames 0-based, ``seed``: c, 1001, 1002)           the input there
+=====================================================  ==================================================
+CMU charleston1 ltoes 285 and 332 (c, 1001),            one-frame spikes of a one-channel toe at 120 fps:
+rtoes 84 (1001): 0.0 -> 18.8, 21.9, 13.2 deg            rx -31.3, -6.5, -21.5 (285); -17.9, +9.1, -13.8
+                                                        (332); -29.8, -15.2, -24.2 (84)
+CMU pirouette rtoes 13-27 (c, 1001): 0.0 -> 40.6        rx +52.6 -> -2.5 at 13 and -52.9 -> -33.4 -> +27.1
+                                                        at 26-28: 15 frames 110 deg off the path both sides
+CMU backflip lhand 128-134, rhand 122-135, rwrist       the hands lost in the flip: lhand rz -22, -123, -274,
+130-135, lradius 131-138 (c; rwrist 1001 too):          -119, -268, -384 (150 deg a frame each way), rwrist
+0.0 -> 106.9, 22.6, 23.7, 7.2                           22, -2, 23, 94, 137, 152, 125, 45, 1 deg
+HDM05 dg lieDownFloor lhand 143-174, rhand 191-196      a hand's rz steps half a turn and back (ASF limit
+(c, 1001, 1002); dg throwBasketball rhand 152-153       +-45 deg): lhand 270.5 -> 450.2 at 143, 451.1 ->
+(c, 1001, 1002); tr throwBasketball rhand 176-207,      271.7 at 175; dg rhand 89.8 -> 269.6 -> 448.5; tr
+267-298 (c, 1001, 1002): 0.0 -> 165.6-179.8             -272 -> -451 at 176, -479 -> -642 at 208
+=====================================================  ==================================================
+
+The other five are harm (four on tune takes):
+
+* HDM05 bk depositFloorR s1001 rfemur 138-213 (23.5 -> 127.3 deg) and rtibia 173-205 (0.0 -> 33.7): the take
+  holds the solver's other solution for the right leg over 138-205 (the thigh half a turn about its bone, the
+  knee at 207 deg past its 170 limit; knee and ankle positions on their path), and the injected thigh swap
+  (197-214) ends inside it: the thigh's steps pair across the two, the knee digresses, and the repair puts the
+  foot 5-6 units off the take. dg squat1Reps s1001 lfemur 62-78 (37.5 -> 83.5): the same other solution on the
+  left thigh at 78-82, and the swap (62-78) ends on it; the neighbour word's thigh, blended to meet frame 79,
+  turns half a turn across the run (18.8 deg off at 62, 170.9 at 77). A rule that tells the other solution
+  from an error would need the leg's positions, not its rotations; none is safe yet.
+* HDM05 dg throwBasketball s1002 rwrist 268-300 (4.2 -> 7.6 deg): a freeze of a wrist that hardly moves; the
+  neighbour word's guess is 3 deg further off than the hold (the hand 0.03 units off).
+* Bandai walk_active_013 s2001 LowerArm_L 58-59 (0.0 -> 1.1 deg): two clean frames just past the forearms'
+  swap (52-56), digressing within the confirmation's margin of its break; the hand 0.1 units off.
+
     python benchmarks/repair_harm.py --json --no-save            # every collection (~10 min on 2 cores)
     python benchmarks/repair_harm.py --quick --json --no-save    # ~3 min
 """
