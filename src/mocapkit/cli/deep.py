@@ -235,10 +235,11 @@ def fill(
     line = f"wrote {out}: {plural(n - left, 'missing joint sample')} filled by {method}"
     if zeros[1]:
         line += f" ({int(zeros[0].sum())} of them written as 0 where the capture lost data)"
-    moved = int(np.isnan(gappy.root_positions).any(axis=-1).sum())  # positions: the root's and animated offsets
-    if gappy.translations is not None:
-        moved += int(np.isnan(gappy.translations[:, 1:]).any(axis=-1).sum())
-    if moved and method != deep.FALLBACK_FILL:  # the networks fill rotations; a position's gap is a straight line
+    root = int(np.isnan(gappy.root_positions).any(axis=-1).sum())  # the networks fill rotations: positions apart
+    moved = 0 if gappy.translations is None else int(np.isnan(gappy.translations[:, 1:]).any(axis=-1).sum())
+    if root and method != deep.FALLBACK_FILL:  # cleaning.root_gaps: the feet's contacts, else a spline
+        line += f" (the {root} missing root position(s) among them from the feet's contacts or a cubic spline)"
+    if moved and method != deep.FALLBACK_FILL:  # an animated offset's gap is a straight line
         line += f" (the {moved} missing position(s) among them interpolated linearly)"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "

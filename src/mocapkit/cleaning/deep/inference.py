@@ -25,6 +25,7 @@ from ...words import frame_span
 from ...io import atomic_write
 from ...motion import Motion
 from ..measured import measured_rotations
+from ..root_gaps import fill_root
 from .channels import ChannelLayout, channel_joints, lerp_fill, with_measured
 from .doubt import doubtful_runs
 from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
@@ -730,10 +731,12 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     Returns a Motion with the input's skeleton, frames and root trajectory;
     every observed (frame, joint) rotation is bit-identical to the input's.
     A missing root rotation or position is not the networks' to fill: it is
-    interpolated linearly (rotations by lerp of channels as well), and so is a
-    missing animated offset (``motion.translations``, (F, J, 3)): on a game rig
-    whose pelvis carries the body's path (Bandai Namco's Hips over a still
-    ``joint_Root``) that is the root position under another name.
+    filled from the body (:func:`mocapkit.cleaning.root_gaps.fill_root`: the
+    feet's contacts carry the position, the heading's spline and the body's
+    tilt the rotation); a missing animated offset (``motion.translations``,
+    (F, J, 3)) is interpolated linearly: on a game rig whose pelvis carries
+    the body's path (Bandai Namco's Hips over a still ``joint_Root``) that is
+    the root position under another name.
     ``model`` / ``denoiser``: models or files, None for the shipped pair that serves the take's rig (the Bandai
     Namco one, CC BY-NC, on that rig): a model whose licence restricts use is said by a
     :class:`~mocapkit.errors.LicenceWarning`, as the CLI says it.
@@ -781,21 +784,8 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
             seen = np.flatnonzero(~missing[:, j])
             rot[missing[:, j], j] = motion.rotations[seen[0], j] if len(seen) else R.identity()
     res = dataclasses.replace(res, rotations=rot)
-    if missing[:, 0].any():
-        root_pos = lerp_fill(motion.root_positions)
-        rot = np.array(res.rotations)
-        q0 = np.array(motion.rotations[:, 0])
-        # the root's rotation and position have gaps of their own: a frame missing only its position keeps its
-        # observed rotation bit for bit (and anchors the rotation's interpolation)
-        gap = np.isnan(q0).any(axis=-1)
-        seen = ~gap
-        if seen.any():  # the observed root rotations in one hemisphere, then each component interpolated
-            q0[seen] = R.quaternion_continuity(q0[seen])
-            q0 = R.quaternion_normalize(lerp_fill(q0))
-        else:
-            q0 = R.identity((len(q0),))
-        rot[:, 0] = np.where(gap[:, None], q0, motion.rotations[:, 0])
-        res = dataclasses.replace(res, rotations=rot, root_positions=root_pos)
+    if missing[:, 0].any():  # the root's own gaps: from the feet's contacts and the body (root_gaps), measured kept
+        res = fill_root(motion, res)[0]
     tr = motion.translations
     if tr is not None and np.isnan(tr).any():  # the animated offsets' gaps, as the root position's (observed kept)
         F, J = tr.shape[:2]

@@ -1,0 +1,132 @@
+"""The root's own gaps (a pelvis root's rotation or position missing over a stretch) filled from the body."""
+
+import dataclasses
+import functools
+
+import numpy as np
+import pytest
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit import samples
+from mocapkit.cleaning.root_gaps import contact_path, fill_root, fill_root_rotation, heading_and_tilt
+from mocapkit.cleaning.whole_take import fill_take
+from mocapkit.joints import unit_scale_cm
+
+ASF = {"12_walk.amc": "12.asf", "HDM_bd_jogLeftCircle4StepsRstart_001_120.amc": "HDM_bd.asf"}
+
+
+@functools.lru_cache(maxsize=None)
+def clip(name: str):
+    kw = {"asf": samples.path(ASF[name])} if name in ASF else {}
+    return mocapkit.load(samples.path(name), **kw)
+
+
+def without(take, first: int, last: int, what: str):
+    """``take`` with its root rotation (``what`` "rotation") or position missing over frames first..last-1."""
+    rot, pos = np.array(take.rotations), np.array(take.root_positions)
+    if what == "rotation":
+        rot[first:last, 0] = np.nan
+    else:
+        pos[first:last] = np.nan
+    return dataclasses.replace(take, rotations=rot, root_positions=pos)
+
+
+def rotation_rms_deg(a, b) -> float:
+    return float(np.sqrt(np.mean(np.degrees(R.geodesic_angle(a, b)) ** 2)))
+
+
+def position_rms_cm(take, a, b) -> float:
+    return float(np.sqrt(np.mean(np.sum((a - b) ** 2, axis=-1))) * unit_scale_cm(take.skeleton))
+
+
+# (clip, first, last, the line's rotation error (deg), bound, the line's position error (cm), bound): the line
+# between the gap's ends is what the networks' fill gave a pelvis root before; the bounds sit well under it
+CASES = [("131_01.bvh", 300, 480, 53.4, 35.0, 43.5, 15.0),
+         ("12_walk.amc", 100, 220, 7.7, 5.0, 2.7, 1.5)]
+
+
+@pytest.mark.parametrize("name,first,last,line_deg,bound_deg,line_cm,bound_cm", CASES)
+def test_a_lost_pelvis_root_is_filled_from_the_body_by_the_fill_step(name, first, last, line_deg, bound_deg,
+                                                                      line_cm, bound_cm):
+    """A CMU walk's root (the pelvis) lost for 1-1.5 s: its rotation came back 53 deg RMS off and its position
+    44 cm off, the line between the gap's ends; the feet's contacts carry the position, the heading's curve and
+    the body's tilt the rotation. Every other number is the take's, bit for bit."""
+    take = clip(name)
+    gone = without(take, first, last, "rotation")
+    out = fill_take(gone).motion
+    err = rotation_rms_deg(out.rotations[first:last, 0], take.rotations[first:last, 0])
+    assert err < bound_deg < line_deg
+    keep = np.ones(take.num_frames, dtype=bool)
+    keep[first:last] = False
+    assert np.array_equal(out.rotations[keep], take.rotations[keep])
+    assert np.array_equal(out.rotations[:, 1:], take.rotations[:, 1:])
+    assert np.array_equal(out.root_positions, take.root_positions)
+
+    gone = without(take, first, last, "position")
+    out = fill_take(gone).motion
+    err = position_rms_cm(take, out.root_positions[first:last], take.root_positions[first:last])
+    assert err < bound_cm < line_cm
+    assert np.array_equal(out.root_positions[keep], take.root_positions[keep])
+    assert np.array_equal(out.rotations, take.rotations)
+
+
+def test_the_line_is_what_the_bounds_beat():
+    """The figures the bounds above are set against: the line between the gap's ends on the same gaps."""
+    for name, first, last, line_deg, _, line_cm, _ in CASES:
+        take = clip(name)
+        t = ((np.arange(first, last) - first + 1) / (last - first + 1))[:, None]
+        p = (1 - t) * take.root_positions[first - 1] + t * take.root_positions[last]
+        assert position_rms_cm(take, p, take.root_positions[first:last]) == pytest.approx(line_cm, abs=0.1)
+        q = R.slerp(np.broadcast_to(take.rotations[first - 1, 0], (last - first, 4)),
+                    np.broadcast_to(take.rotations[last, 0], (last - first, 4)), t[:, 0])
+        assert rotation_rms_deg(q, take.rotations[first:last, 0]) == pytest.approx(line_deg, abs=1.0)
+
+
+def test_a_partly_missing_root_position_keeps_its_measured_axes():
+    """A root whose height alone is missing (an AMC's ``ty`` written nan): X and Z are the take's, bit for bit, and
+    the height comes from the feet."""
+    take = clip("12_walk.amc")
+    pos = np.array(take.root_positions)
+    pos[100:220, 1] = np.nan
+    out, how = fill_root(dataclasses.replace(take, root_positions=pos))
+    assert np.array_equal(out.root_positions[:, [0, 2]], take.root_positions[:, [0, 2]])
+    assert np.array_equal(out.root_positions[~np.isnan(pos)], take.root_positions[~np.isnan(pos)])
+    assert not np.isnan(out.root_positions).any()
+    assert how == {("position", 100, 220): "contacts"}
+    cm = unit_scale_cm(take.skeleton)
+    assert np.sqrt(np.mean((out.root_positions[100:220, 1] - take.root_positions[100:220, 1]) ** 2)) * cm < 1.5
+
+
+def test_a_jump_falls_back_to_the_spline():
+    """Where the feet leave the ground the contacts' path misses the far end: the cubic spline fills the gap."""
+    take = clip("131_01.bvh")
+    F = take.num_frames
+    feet = np.zeros((F, 1, 3))
+    feet[:, 0, 1] = -30.0  # one foot under the root that never moves relative to it: a root standing still ...
+    pos = np.array(take.root_positions)
+    path, miss = contact_path(pos, 300, 480, feet, np.array([0.0, 1.0, 0.0]))
+    assert np.allclose(path[0], pos[299] + (pos[480] - pos[299]) / 181)  # ... bent linearly onto the far end
+    assert miss == pytest.approx(np.linalg.norm(pos[480] - pos[299]))
+
+
+def test_heading_and_tilt_rebuild_the_rotation():
+    take = clip("131_01.bvh")
+    up = np.array([0.0, 1.0, 0.0])
+    heading, tilt = heading_and_tilt(take.rotations[:, 0], up)
+    back = R.quaternion_multiply(R.quaternion_from_axis_angle(np.broadcast_to(up, (len(heading), 3)), heading),
+                                 R.rotvec_to_quaternion(tilt))
+    assert np.allclose(np.degrees(R.geodesic_angle(back, take.rotations[:, 0])), 0.0, atol=1e-6)
+    assert np.allclose(tilt @ up, 0.0, atol=1e-9)  # the tilt has no turn about the vertical
+
+
+def test_a_rotation_gap_touching_the_take_end_holds_and_the_rest_is_kept():
+    take = clip("12_walk.amc")
+    q = np.array(take.rotations[:, 0])
+    gap = np.zeros(len(q), dtype=bool)
+    gap[-30:] = True
+    q[gap] = np.nan
+    out, chosen = fill_root_rotation(q, gap, take.fps)
+    assert chosen == {(len(q) - 30, len(q)): "spline"}
+    assert np.array_equal(out[~gap], take.rotations[~gap, 0])
+    assert np.allclose(np.degrees(R.geodesic_angle(out[gap], take.rotations[-31, 0])), 0.0, atol=1e-6)
