@@ -26,7 +26,15 @@ Figures, pooled over takes and seeds, per (frame, joint) cell:
   cells after ``repair`` (baseline: before it, the corrupted take);
 * ``repair_position_rms_cm``: joint-position RMS (global, all joints) from
   the truth over the frames holding a swap, after ``repair`` (baseline: before
-  it).
+  it);
+* ``edge_*``: the same corrupted takes cut so that a swap touches the take's
+  edge (even seeds: from the first swap's first frame on, so it starts at
+  frame 0; odd seeds: up to the last swap's last frame, so it runs to the
+  take's end; cuts under 30 frames skipped): ``edge_swap_recall`` /
+  ``edge_swap_precision`` of the swap check's cells, ``edge_repair_error_deg``
+  over the swapped cells after ``repair`` (baseline: before it),
+  ``edge_repaired_share`` the swapped cells put back within 0.01 deg, and
+  ``edge_harmed_cells`` the cells off a swap that ``repair`` moved by more.
 
 Baseline of the swap check: the same check given the plain mirror's rotations
 (``Motion.mirror()`` reused on the take's skeleton, what it was given before
@@ -91,6 +99,18 @@ def ratio(a: float, b: float) -> float | None:
     return float(a / b) if b else None
 
 
+def edge_cut(m, bad, records, seed: int):
+    """``(truth, corrupted, truth mask)`` cut so that a swap touches the take's edge: from the first record's start
+    (even ``seed``) or up to the last record's end (odd); None where under 30 frames are left."""
+    lo, hi = (min(r.start for r in records), m.num_frames) if seed % 2 == 0 else (0, max(r.end for r in records))
+    if hi - lo < 30:
+        return None
+    truth = np.zeros((hi - lo, m.num_joints), dtype=bool)
+    for r in records:
+        truth[max(r.start - lo, 0) : min(r.end, hi) - lo, m.skeleton.index(r.joint)] = True
+    return m[lo:hi], bad[lo:hi], truth
+
+
 def main(argv=None) -> None:
     ap = harness.parser(__doc__)
     ap.add_argument("--takes", type=int, default=60, help="takes, evenly spread over both datasets")
@@ -106,6 +126,7 @@ def main(argv=None) -> None:
     pos_before, pos_after = [], []
     rows = []
     t_detect = []
+    edge, edge_before, edge_after, edge_cells, edge_back, edge_harmed = np.zeros(3, int), 0.0, 0.0, 0, 0, 0
     for take in takes:
         m = mocapkit.load(take.path)[: args.frames]
         clean_det = ssa.detect(m)
@@ -134,6 +155,19 @@ def main(argv=None) -> None:
             pb, pa = position_rms(bad, m, frames), position_rms(fixed, m, frames)
             pos_before.append(pb)
             pos_after.append(pa)
+            cut = edge_cut(m, bad, records, seed)
+            if cut is not None:
+                em, eb, et = cut
+                edet = ssa.detect(eb)
+                efixed = ssa.repair(eb, edet)
+                edge += counts(edet.swaps, et)
+                off = np.degrees(R.geodesic_angle(efixed.rotations, em.rotations))
+                was = np.degrees(R.geodesic_angle(eb.rotations, em.rotations))
+                edge_before += float(was[et].sum())
+                edge_after += float(off[et].sum())
+                edge_cells += int(et.sum())
+                edge_back += int((off[et] < 0.01).sum())
+                edge_harmed += int(((off > 0.01) & ~et).sum())
             rows.append({"take": take.path.name, "seed": seed, "frames": m.num_frames,
                          "mismatch": round(mirror_mismatch(m.skeleton), 3),
                          "pairs": sorted({r.joint for r in records}),
@@ -151,6 +185,12 @@ def main(argv=None) -> None:
         "repair_error_deg": err_after / max(n_cells, 1),
         "repair_position_rms_cm": float(np.sqrt(np.mean(np.square(pos_after)))) if pos_after else float("nan"),
         "swapped_cells": int(swap[2]),
+        "edge_swap_recall": ratio(edge[0], edge[2]),
+        "edge_swap_precision": ratio(edge[0], edge[1]),
+        "edge_repair_error_deg": edge_after / max(edge_cells, 1),
+        "edge_repaired_share": ratio(edge_back, edge_cells),
+        "edge_harmed_cells": edge_harmed,
+        "edge_swapped_cells": edge_cells,
         "corrupted_takes": len(rows),
         "detect_cpu_s_median": float(np.median(t_detect)) if t_detect else float("nan"),
     }
@@ -158,6 +198,7 @@ def main(argv=None) -> None:
         "swap_recall": figures["plain_mirror_swap_recall"],
         "swap_precision": figures["plain_mirror_swap_precision"],
         "repair_error_deg": err_before / max(n_cells, 1),
+        "edge_repair_error_deg": edge_before / max(edge_cells, 1),
         "repair_position_rms_cm": float(np.sqrt(np.mean(np.square(pos_before)))) if pos_before else float("nan"),
     }
     details = {"takes": [t.path.name for t in takes], "rows": rows,
