@@ -218,12 +218,16 @@ def mirrored_rotations(motion: Motion) -> np.ndarray | None:
         return None
 
 
-def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotations=None, mirrored=None) -> np.ndarray:
+def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotations=None, mirrored=None,
+                         held=None) -> np.ndarray:
     """:func:`side_swaps` on midpoint residuals already computed (:func:`midpoint_residuals`).
 
     With ``rotations`` (F, J, 4) and ``mirrored`` (the take's
     :meth:`~mocapkit.motion.Motion.mirror` rotations, F, J, 4) each break
-    event must also look like a swap (:func:`_swap_step`).
+    event must also look like a swap (:func:`_swap_step`). ``held`` (F, J)
+    bool (None: none): the break frames of swaps with one break
+    (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`); an event holding
+    one on both joints of the pair is that swap's, paired with no other.
     """
     from scipy import ndimage
 
@@ -244,6 +248,9 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         if len(frames) < 2:
             continue
         first, last, _ = event_bounds(frames)
+        if held is not None:
+            free = [not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)]
+            first, last = first[free], last[free]
         starts = [int(f) for f in first]
         if rotations is not None and mirrored is not None:
             whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]

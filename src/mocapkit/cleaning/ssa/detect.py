@@ -39,6 +39,7 @@ from .cues import (
     CAUSE_DTYPE,
 )
 from .drifts import group_agreement, group_offset_change, group_offset_turn, not_looked_for, smooth_drift_flags
+from .edge_swaps import edge_swaps, possible_swap_note
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
@@ -729,11 +730,26 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     frozen = frozen_channels(q, own, analysed, motion.fps)
     holds = bounded_holds(holds, frozen)  # a hold that holds a freeze: its repeats, not the sample it froze at
     mirrored = mirrored_rotations(motion)
-    swaps = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
-                                 rotations=q, mirrored=mirrored)
-    # a swap whose steps its joints' own fast motion hides, proved by the exchange back joining the take
-    swaps |= joined_swaps(q, mirrored, resid, mirror_pairs(sk.joint_names), sk.parents, motion.fps,
-                          p.swap_jump_deg, p.swap_max_s, analysed, swaps)
+    def two_breaks(held=None, found=None):  # the swaps of two breaks, ``held`` break frames paired with no other
+        got = swaps_from_residuals(resid, sk.joint_names, motion.fps, p.swap_jump_deg, p.swap_max_s, analysed,
+                                   rotations=q, mirrored=mirrored, held=held)
+        got = got if found is None else got | found
+        # a swap whose steps its joints' own fast motion hides, proved by the exchange back joining the take
+        return got | joined_swaps(q, mirrored, resid, mirror_pairs(sk.joint_names), sk.parents, motion.fps,
+                                  p.swap_jump_deg, p.swap_max_s, analysed, got, held=held)
+
+    swaps = two_breaks()
+    # a swap from the take's first frame or to its last breaks once: found where its reading tells, else named
+    edge_cells, held = np.zeros((F, J), dtype=bool), np.zeros((F, J), dtype=bool)
+    for e in edge_swaps(q, mirrored, resid, digression, sk.joint_names, sk.parents, motion.fps,
+                        p.swap_jump_deg, p.swap_max_s, swaps, analysed):
+        at = e.end if e.start == 0 else e.start - 1  # its break: the step at -> at + 1
+        held[at : at + 2, [e.joint, e.partner]] = True
+        edge_cells[e.start : e.end + 1, [e.joint, e.partner]] = e.found
+        if not e.found:
+            notes.append(possible_swap_note(e, sk.joint_names))
+    if held.any():
+        swaps = two_breaks(held, edge_cells)
     offsets = offsets_from_residuals(
         np.asarray(motion.rotations, dtype=np.float64), resid, motion.fps, p.offset_jump_deg, p.offset_max_s,
         p.offset_min_deg, analysed, sk.joint_names, sk.parents, digression,

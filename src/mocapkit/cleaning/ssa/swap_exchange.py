@@ -200,7 +200,7 @@ def exchange_joins(q: np.ndarray, mirrored: np.ndarray, joints, start: int, end:
 
 def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.ndarray, partner, parents,
                  fps: float, jump_deg: float, max_s: float, joints=None, swaps: np.ndarray | None = None,
-                 ratio: float = SWAP_JOIN_RATIO) -> np.ndarray:
+                 ratio: float = SWAP_JOIN_RATIO, held: np.ndarray | None = None) -> np.ndarray:
     """(F, J) bool: left/right swaps whose two steps break both joints of a pair by ``jump_deg`` or more and
     whose exchange back joins the take at both ends.
 
@@ -222,7 +222,9 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     nothing found) as :func:`swap_exchanges`; ``resid`` (F, J) radians the midpoint residuals
     (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`); ``partner`` (J,) int; ``parents`` (J,) int, the
     skeleton's; ``fps`` the take's rate; ``joints`` (J,) bool the joints judged (None: all); ``swaps`` (F, J)
-    bool the swaps found already, whose runs are not judged again (None: none).
+    bool the swaps found already, whose runs are not judged again (None: none); ``held`` (F, J) bool the break
+    frames of swaps with one break (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`, None: none), whose events
+    are paired with no other.
     """
     from scipy import ndimage
 
@@ -254,6 +256,9 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
         if len(frames) < 2:
             continue
         first, last, _ = event_bounds(frames)
+        if held is not None:
+            free = [not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)]
+            first, last = first[free], last[free]
         # the steps a -> a + 1 of each event (its break frames are a and a + 1)
         steps = sorted({a for f, l in zip(first, last) for a in range(max(int(f) - 1, 0), min(int(l), F - 2) + 1)})
         taken = found[:, j] | found[:, p]

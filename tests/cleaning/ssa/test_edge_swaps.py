@@ -1,0 +1,94 @@
+"""A left/right swap from the take's first frame or to its last: one break (mocapkit.cleaning.ssa.edge_swaps).
+
+The real take is the bundled Bandai Namco run (tests/data, run_active_049, 65 frames at 30 fps) with a pair's
+limbs swapped as ``corrupt --kind swap`` swaps them, each taking its partner's mirrored rotation.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+
+import mocapkit
+from mocapkit import rotations as R
+from mocapkit.cleaning import ssa
+from mocapkit.cleaning.ssa.cues import mirrored_rotations
+
+RUN = Path(__file__).parents[2] / "data" / "dataset-2_run_active_049.bvh"
+
+
+def _swapped(pair, runs):
+    """The run, a copy with ``pair`` (two joint names) swapped over each of ``runs`` ``(a, b)`` (frames a .. b - 1),
+    and the swapped cells (F, J) bool."""
+    take = mocapkit.load(RUN)
+    names = take.skeleton.joint_names
+    cols = [names.index(n) for n in pair]
+    q = np.array(take.rotations)
+    truth = np.zeros(q.shape[:2], dtype=bool)
+    for a, b in runs:
+        q[a:b, cols] = mirrored_rotations(take)[a:b, cols]
+        truth[a:b, cols] = True
+    return take, dataclasses.replace(take, rotations=q), truth
+
+
+def test_a_swap_from_the_first_frame_is_found_and_exchanged_back():
+    """The thighs swapped over frames 0-8: one break, at 8 -> 9. Exchanged back over 0-8 they join the take there,
+    and the pair digresses from the take's neighbour words over those frames (39.6 deg on average), not beyond
+    (4.7): detection names exactly
+    the swapped cells, the repair puts back the clean values and changes nothing else."""
+    take, bad, truth = _swapped(("UpperLeg_L", "UpperLeg_R"), [(0, 9)])
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, truth)
+    out = ssa.repair(bad, det)
+    assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
+    assert np.array_equal(out.rotations[~truth], bad.rotations[~truth])
+
+
+def test_a_swap_at_frame_0_does_not_pair_its_break_with_the_next_swaps():
+    """The thighs swapped over frames 0-8 and again over 20-29. The first swap's one break, paired in time order
+    with the second's entry, exchanged the clean frames 9-19 between them and left both swaps (22 clean cells
+    named a swap); read as a swap from the take's first frame, each swap is found on its own frames."""
+    take, bad, truth = _swapped(("UpperLeg_L", "UpperLeg_R"), [(0, 9), (20, 30)])
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, truth)
+    out = ssa.repair(bad, det)
+    assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
+    assert np.array_equal(out.rotations[~truth], bad.rotations[~truth])
+
+
+def test_a_swap_to_the_last_frame_the_digression_does_not_tell_is_named_and_left():
+    """The thighs swapped over frames 35-44 and 56-64, the last frame's: the second's one break, 55 -> 56, and the
+    pair digresses less over 56-64 (7.9 deg on average) than over the frames before the break (12.2), so which
+    side is swapped is not said. The first swap is found and exchanged back; the second is named in the notes as
+    a possible swap and its cells come back as they were given."""
+    take, bad, truth = _swapped(("UpperLeg_L", "UpperLeg_R"), [(35, 45), (56, 65)])
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, truth & (np.arange(take.num_frames) < 45)[:, None])
+    notes = [n for n in det.notes if "possible left/right swap" in n]
+    assert len(notes) == 1 and "UpperLeg_L and UpperLeg_R" in notes[0] and "56-64" in notes[0]
+    out = ssa.repair(bad, det)
+    assert np.array_equal(out.rotations[56:], bad.rotations[56:])
+
+
+def test_clean_bundled_takes_have_no_swap_at_their_edges():
+    """Clean takes (the run, the bundled Bandai walk, the CMU start) break at their edges as motion does: no swap
+    found, none named possible."""
+    for name in ("dataset-2_run_active_049.bvh", "dataset-2_walk-turn-left_exhausted_005.bvh", "cmu_01_01_start.bvh"):
+        det = ssa.detect(mocapkit.load(RUN.parent / name))
+        assert not det.swaps.any(), name
+        assert not [n for n in det.notes if "possible left/right swap" in n], name
+
+
+def test_unexplained_counts_the_events_no_run_starts_or_ends_at():
+    """Three events, steps 6, 33 and 40: the runs 0-6 and 34-40 start or end at each; the run 7-33 leaves 40."""
+    from mocapkit.cleaning.ssa.edge_swaps import unexplained
+
+    events = (np.array([6, 33, 40]), np.array([6, 33, 40]))
+    cells = np.zeros(60, dtype=bool)
+    cells[0:7] = cells[34:41] = True
+    assert unexplained(cells, events) == 0
+    other = np.zeros(60, dtype=bool)
+    other[7:34] = True
+    assert unexplained(other, events) == 1
