@@ -233,10 +233,10 @@ def record_map_ordered(monkeypatch) -> list:
     return seen
 
 
-def t_pose_walk():
+def t_pose_walk(seed: int = 1):
     """CMU 12_walk (bundled) opening with the rest pose, a T-pose, as the CMU BVH converter's frame 0 does, with
-    three errors injected (``corrupt.real_errors``, seed 1): the take ``clean``, ``detect`` and ``repair`` must treat
-    alike, the calibration pose left alone."""
+    three errors injected (``corrupt.real_errors``, ``seed``; 1: a spike, a flip and the feet swapped): the take
+    ``clean``, ``detect`` and ``repair`` must treat alike, the calibration pose left alone."""
     import dataclasses
 
     import numpy as np
@@ -250,7 +250,7 @@ def t_pose_walk():
     take = dataclasses.replace(walk, rotations=np.concatenate([rest, walk.rotations]),
                                root_positions=np.concatenate([walk.root_positions[:1], walk.root_positions]),
                                name="t_pose_walk")
-    return corrupt.real_errors(take, n_errors=3, seed=1)[0]
+    return corrupt.real_errors(take, n_errors=3, seed=seed)[0]
 
 
 def marker_decisions_file(folder: Path, inp: Path, choices: dict, name: str = "d.json", stamped: bool = True) -> Path:

@@ -272,3 +272,21 @@ def test_root_depths_count_the_bones_from_the_root_of_a_real_skeleton():
     assert depth[0] == 0 and (depth[1:] == depth[parents[1:]] + 1).all()
     names = list(sk.joint_names)
     assert depth[names.index("ltoes")] == depth[names.index("lfemur")] + 3
+
+
+def test_a_foot_swap_exchanged_back_gets_no_foot_skate_cleanup():
+    """The bundled run with its feet swapped over frames 20-31 (the repair finds it from one side's flags,
+    ``partner_swaps``). Exchanged back, the feet hold the capture's own values, planted where they were captured:
+    the foot-skate cleanup (on by default) has nothing to mend there. It moved 6 clean cells of the leg (up to 0.1
+    deg) and the swapped ones off their exchange; now the swap comes back to 1e-9 deg and nothing else moves."""
+    take = _bundled("dataset-2_run_active_049.bvh")
+    names = take.skeleton.joint_names
+    feet = [names.index("Foot_L"), names.index("Foot_R")]
+    q = np.array(take.rotations)
+    q[20:32, feet] = mirrored_rotations(take)[20:32, feet]
+    truth = np.zeros(q.shape[:2], dtype=bool)
+    truth[20:32, feet] = True
+    bad = dataclasses.replace(take, rotations=q)
+    out = ssa.repair(bad, ssa.detect(bad))
+    assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
+    assert np.array_equal(out.rotations[~truth], bad.rotations[~truth])

@@ -199,8 +199,8 @@ def repair_with_left(
     but not at every end is left as it came, both sides named in ``left``
     (:func:`~mocapkit.cleaning.ssa.swap_exchange.partner_swaps`). Every unflagged value is bit-identical to the
     input, except such an exchange's and, with
-    ``foot_skate``, the hip and knee of a leg whose joints were replaced in a
-    frame where its foot is planted (foot-skate cleanup, see
+    ``foot_skate``, the hip and knee of a leg whose joints were replaced (not
+    exchanged back as a swap) in a frame where its foot is planted (foot-skate cleanup, see
     :func:`mocapkit.cleaning.ik.foot_skate_cleanup`). ``contacts`` (list of
     :class:`mocapkit.cleaning.ik.Contact`) picks, instead of the medoid, the
     neighbour word whose end effector comes closest to the contact point, and
@@ -267,6 +267,7 @@ def repair_with_left(
     offsets = flags & np.asarray(detection.offsets, dtype=bool) & ~np.asarray(detection.swaps, dtype=bool)
     for j in np.flatnonzero(offsets.any(axis=0)):
         base[:, j], undone[:, j] = undone_offsets(motion.rotations[:, j], offsets[:, j])
+    offset_undone = undone.copy()
     # a swap detection confirmed by the mirrored exchange is put back by that exchange (swap_exchange.py)
     swapped = flags & np.asarray(detection.swaps, dtype=bool) & ~undone
     if detection.reversals is not None:
@@ -369,8 +370,8 @@ def repair_with_left(
             frames = np.arange(max(c.start, 0), min(c.end, F))
             if len(frames):
                 out = ik.two_bone_ik(out, c.joint, c.target(), frames=frames)
-    if foot_skate:
-        out = _foot_skate(motion, out, flags)
+    if foot_skate:  # a swap exchanged back holds the capture's own values, its feet where they were captured
+        out = _foot_skate(motion, out, flags & ~(undone & ~offset_undone))
     return out, tuple(left)
 
 
