@@ -38,11 +38,12 @@ __all__ = ["EDGE_CLEAR", "EdgeSwap", "edge_swaps", "mirror_steps", "possible_swa
 #: the swapped side's mean digression (radians) must exceed this many times the other side's
 EDGE_CLEAR = 2.0
 
+
 @dataclass(frozen=True)
 class EdgeSwap:
     """A one-break swap candidate of joints ``joint`` and ``partner`` over frames ``start .. end`` (inclusive),
-    one of which is the take's first or last frame; ``found``: the digression told it (exchanged back by the
-    repair), else a possible swap left as it came; ``inside`` and ``other`` the pair's mean digression (radians,
+    one of which is the take's first or last frame; ``found``: the readings of the pair's breaks told it
+    (:func:`edge_swaps`; exchanged back by the repair), else a possible swap left as it came; ``inside`` and ``other`` the pair's mean digression (radians,
     NaN where no neighbour word judges it) over the run and over the other side of its break."""
 
     joint: int
@@ -68,6 +69,7 @@ def mirror_steps(q: np.ndarray, mirrored: np.ndarray, j: int, p: int) -> np.ndar
 
 
 def _mean(d: np.ndarray) -> float:
+    """The mean of the finite values of ``d``; NaN where there are none."""
     d = d[np.isfinite(d)]
     return float(d.mean()) if d.size else float("nan")
 
