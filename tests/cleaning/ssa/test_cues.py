@@ -10,7 +10,7 @@ import mocapkit
 from mocapkit import corrupt
 from mocapkit import rotations as R
 from mocapkit.cleaning import ssa
-from mocapkit.cleaning.ssa import cues
+from mocapkit.cleaning.ssa import cues, spikes
 from mocapkit.cleaning.ssa.step_pairs import offset_step_breaks
 from tests.cleaning.ssa.helpers import offset_on, swinging, turned
 
@@ -296,22 +296,6 @@ def test_a_limb_stepping_off_and_back_at_once_is_not_a_transient_offset(walk):
     assert ssa.transient_offsets(pair)[:, hip].sum() == 50
 
 
-def test_spike_breaks_tell_a_spike_from_a_step(walk):
-    """A one-frame spike leaves the joint on its path (a spike); a step, or a drift's end, moves it to another."""
-    spiked, j = turned(walk, "LeftElbow", np.array([400]), 30.0)
-    q = np.asarray(spiked.rotations)
-    resid = cues.midpoint_residuals(q)
-    breaks = cues.own_breaks(resid, 8.0)
-    assert np.flatnonzero(breaks[:, j]).tolist() == [399, 400, 401]
-    assert np.array_equal(cues.spike_breaks(q, resid, breaks)[:, j], breaks[:, j])
-    stepped, j = turned(walk, "LeftElbow", np.arange(400, walk.num_frames), 30.0)
-    q = np.asarray(stepped.rotations)
-    resid = cues.midpoint_residuals(q)
-    breaks = cues.own_breaks(resid, 8.0)
-    assert np.flatnonzero(breaks[:, j]).tolist() == [399, 400]
-    assert not cues.spike_breaks(q, resid, breaks)[:, j].any()
-
-
 def test_a_spike_is_flagged_on_its_own_frames_not_on_the_digression_around_it(walk):
     """The digression around a spike spans the neighbour words (0.6 s); the error is the spike's frames."""
     spiked, j = turned(walk, "LeftElbow", np.array([400]), 40.0)
@@ -466,7 +450,7 @@ def _event_step_reference(q, first, last):
 
 
 def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
-    """All of a joint's events at once (:func:`cues.event_steps`, :func:`cues.spike_breaks`) give, bit for bit,
+    """All of a joint's events at once (:func:`cues.event_steps`, :func:`spikes.spike_breaks`) give, bit for bit,
     what one event at a time gives, on a real take with real-style errors and events at both ends."""
     bad, _mask, _rec = corrupt.real_errors(walk, n_errors=8, seed=5)
     rot = np.array(bad.rotations, dtype=np.float64)
@@ -491,7 +475,7 @@ def test_event_steps_and_spikes_equal_the_one_event_at_a_time_reference(walk):
             if np.linalg.norm(ref) < 0.5 * float(resid[run[0] : run[-1] + 1, j].max()):
                 want[run, j] = True
     assert n_events > 20 and n_none >= 2 and want.any() and (breaks & ~want).any()
-    assert np.array_equal(cues.spike_breaks(rot, resid, breaks), want)
+    assert np.array_equal(spikes.spike_breaks(rot, resid, breaks), want)
 
 
 def test_a_throw_at_24_fps_breaks_nothing_an_error_there_still_does(shared_data):
@@ -624,37 +608,6 @@ def test_a_short_swap_is_flagged_on_its_own_frames_not_paired_with_the_next(shar
     assert not np.delete(swaps, [j, k], axis=1).any()
 
 
-def _lone(m, judged=None):
-    from mocapkit.cleaning.ssa.texture import informative_joints
-
-    q = np.asarray(m.rotations, dtype=np.float64)
-    analysed = np.zeros(m.num_joints, dtype=bool)
-    analysed[informative_joints([m])] = True
-    judged = np.zeros(q.shape[:2], dtype=bool) if judged is None else judged
-    return cues.lone_spikes(q, cues.midpoint_residuals(q), judged, analysed, m.skeleton.parents), analysed
-
-
-@pytest.mark.parametrize("path, frames, seed, found", [
-    (Path("hdm05_asfamc") / "HDM_mm_lieDownFloor_015_120.amc", slice(None), 45313, 4),
-    (Path("hdm05_asfamc") / "HDM_mm_depositFloorR_019_120.amc", slice(None, None, 4), 3, 4),
-    # a 35 deg spike on a dancing shin (3 times its own largest residual: the MDM's to judge) and a 32 deg one
-    # on a dancing upper arm (4.3 times) are left
-    (Path("secondary_bandai_namco_CC-BY-NC") / "dataset-1_dance-short_normal_001.bvh", slice(900), 46520, 2),
-])
-def test_lone_spikes_flag_a_spike_far_past_the_joints_own_motion_and_nothing_on_the_clean_take(shared_data, path,
-                                                                                                frames, seed, found):
-    """trialA finding 4: 30-90 deg spikes of 1-3 frames on joints that lie down, dance or put a box down (120
-    and 30 fps) stand out from everything else the joint does in the take (the lying toes' largest frame
-    step elsewhere 1.7 deg); flagged on their own frames, not on the untouched take, not where judged."""
-    m = mocapkit.load(shared_data / path)[frames]
-    assert not _lone(m)[0].any()
-    bad, mask, records = corrupt.real_errors(m, kinds=("spike",), n_errors=4, seed=seed)
-    lone, _ = _lone(bad)
-    assert not (lone & ~mask).any()
-    assert sum(bool(lone[r.start : r.end, m.skeleton.index(r.joint)].all()) for r in records) == found
-    assert not _lone(bad, judged=np.ones(mask.shape, dtype=bool))[0].any()  # judged cells are the MDM's
-
-
 def test_a_lone_spike_is_flagged_by_its_rule_and_bridged_over_its_own_frames(shared_data, tmp_path):
     """trialA finding 4: HDM05 depositFloorR at 30 fps (every fourth frame), 4 spikes of 33 to 76 deg that no
     word of the 2 s take repeats: clean said "0 flagged segments" and left them. Now each is flagged by the
@@ -732,9 +685,9 @@ def test_uncompensated_breaks_memo_gives_the_same_answers(walk):
     finally:
         cues._compensated = real
     assert not calls and np.array_equal(again, cues.uncompensated_breaks(rot, parents, wide))
-    assert np.array_equal(cues.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
+    assert np.array_equal(spikes.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
                                            parents, memo={}),
-                          cues.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
+                          spikes.lone_spikes(rot, resid, np.zeros(resid.shape, bool), np.ones(sk.num_joints, bool),
                                            parents))
 
 

@@ -43,8 +43,6 @@ __all__ = [
     "cause_names",
     "flag_rule",
     "held_joints",
-    "spike_breaks",
-    "lone_spikes",
     "step_angles",
     "uncompensated_breaks",
     "chain_table",
@@ -740,7 +738,7 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
 
     The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
     ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
-    and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`lone_spikes` (``lone``, bool
+    and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (``lone``, bool
     (F, J) or None: none); the breaks that are the two steps of a flagged offset that is no swap (the
     offsets repair takes away) confirm no digression (:func:`~mocapkit.cleaning.ssa.step_pairs.offset_step_breaks`); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
     has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
@@ -778,12 +776,12 @@ def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, c
               drifts=None, spikes=None, judged=None, lone=None, reversed_=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
     transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
-    ``mdm > threshold`` without confirmation. ``spikes``: :func:`spike_breaks` of the take (None: no run is
+    ``mdm > threshold`` without confirmation. ``spikes``: :func:`~mocapkit.cleaning.ssa.spikes.spike_breaks` of the take (None: no run is
     cut as a spike's, as in detections made before it). ``judged`` (F, J) bool, the cells the
     context judged (a finite digression; None: all): a break outside them confirms no digression. The
     digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
     break, and repairing it would change the frames before an error and leave the error. Which rule flags
-    each cell: :func:`flag_causes`; ``lone``: :func:`lone_spikes` (None: none); ``reversed_`` names cells only."""
+    each cell: :func:`flag_causes`; ``lone``: :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (None: none); ``reversed_`` names cells only."""
     return flag_causes(mdm, jumps, holds, swaps, offsets, threshold, fps, confirm, margin_s, drifts, spikes,
                        judged, lone, reversed_) != 0
 
@@ -798,7 +796,7 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict 
     ``parents`` (J,); events are grouped as :func:`event_bounds` does.
     ``memo``: a dict ``(joint, first, last) -> compensated`` of the events already judged on this ``q`` and
     ``parents`` (another call's), read and added to: an event's answer is its own, whichever events it is judged
-    with, so the events found again are not judged again (detection's breaks and :func:`lone_spikes`').
+    with, so the events found again are not judged again (detection's breaks and :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes`').
     """
     out = np.array(breaks, dtype=bool)
     for j in np.flatnonzero(out.any(axis=0)):
@@ -814,92 +812,6 @@ def uncompensated_breaks(q: np.ndarray, parents, breaks: np.ndarray, memo: dict 
                 memo.update(zip([keys[i] for i in np.flatnonzero(todo)], found.tolist()))
             comp = np.array([memo[key] for key in keys], dtype=bool)
         out[frames[comp[event]], j] = False
-    return out
-
-
-def spike_breaks(q: np.ndarray, resid: np.ndarray, breaks: np.ndarray, ratio: float = 0.5) -> np.ndarray:
-    """(F, J) bool: the break events (``breaks``, grouped as :func:`event_bounds` does) that are spikes.
-
-    A spike leaves the joint on the path it was on: the step across its
-    event (:func:`event_steps`, from the path before to the path after) is
-    under ``ratio`` times the event's largest midpoint residual ``resid``.
-    A step of s degrees between two frames leaves residuals of s / 2 and
-    a step of s, a ratio of 2; a one-frame spike of s degrees a residual of s
-    and no step. Events touching the take's ends are not called spikes.
-    ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians, ``breaks`` (F, J) bool.
-    """
-    out = np.zeros(breaks.shape, dtype=bool)
-    for j in np.flatnonzero(breaks.any(axis=0)):
-        frames = np.flatnonzero(breaks[:, j])
-        first, last, event = event_bounds(frames)
-        span, _, start = segment_frames(first, last - first + 1)  # the frames first .. last of each event
-        peak = np.maximum.reduceat(resid[span, j], start)
-        spike = row_norms(event_steps(q[:, j], first, last)) < ratio * peak  # NaN (ends of the take): no spike
-        out[frames[spike[event]], j] = True
-    return out
-
-
-#: :func:`lone_spikes`: how many times the joint's largest residual elsewhere a spike's must reach, and the fewest
-#: degrees it must leave the path by (real motion's spike-shaped breaks reach 3.1 times that level on the CMU,
-#: HDM05 and Bandai Namco takes at 30 and 120 fps; the captures' own glitches, a hand flipping for a few frames,
-#: 5 to 100 times; corrupt.real_errors' spikes of 30 to 90 deg, 5 to 50 times)
-LONE_SPIKE_RATIO = 5.0
-LONE_SPIKE_MIN_DEG = 20.0
-LONE_SPIKE_MAX_FRAMES = 3  # off the path for at most this many frames (corrupt.real_errors' spikes: 1-3)
-
-
-def lone_spikes(q: np.ndarray, resid: np.ndarray, judged: np.ndarray, analysed: np.ndarray, parents=None,
-                jump_deg: float = _D.jump_deg, ratio: float = LONE_SPIKE_RATIO,
-                min_deg: float = LONE_SPIKE_MIN_DEG, max_frames: int = LONE_SPIKE_MAX_FRAMES,
-                memo: dict | None = None) -> np.ndarray:
-    """(F, J) bool: the frames of spikes far past the joint's own motion, where no neighbour word judges them.
-
-    The movement digression map flags only motion the take (or its context) repeats: a word with no neighbour within
-    the gate is not judged (Aristidou et al. 2018 find an error by similar motion, section 3.4), and 30 to 90 deg
-    spikes in a dance or a take lying down went through unflagged. A spike is an error whatever the motion around
-    it: the joint leaves its path and comes back within a few frames by far more than its own motion ever does. A
-    break event (midpoint residuals over ``jump_deg``, grouped as :func:`event_bounds` does, less those the joint's
-    chain undoes, :func:`uncompensated_breaks`, with ``parents``) is such a spike when it holds at most
-    ``max_frames`` frames between its first and last break (a joint under noise breaks at every frame, one long
-    event), its frames lie at least ``min_deg`` off the slerp between the frames beside it and (a return to the
-    path) that is twice the turn between those two frames or more, or :func:`spike_breaks` calls it one; and when
-    its largest residual is at least ``ratio`` times the joint's largest residual outside it and outside the joint's
-    largest other such spike (so that two errors on one joint do not hide each other, while a flick the joint makes
-    in every stride does not stand out). The frames flagged are the spike's own, between its first and last break (a
-    spike of k frames breaks at the frame before it and the one after too), and only where no cell is judged
-    (``judged`` (F, J) bool, a finite digression; the rest is the digression's to judge) and the joint is
-    ``analysed`` ((J,) bool): there :func:`~mocapkit.cleaning.ssa.repair` has no neighbour word and bridges them by
-    slerp between the frames beside them. ``q`` (F, J, 4) rotations, ``resid`` (F, J) radians
-    (:func:`midpoint_residuals`). ``memo``: :func:`uncompensated_breaks`' events already judged on ``q``. A cue
-    of this library, not of the paper.
-    """
-    F, J = resid.shape
-    out = np.zeros((F, J), dtype=bool)
-    breaks = residual_breaks(resid, jump_deg) & np.asarray(analysed, dtype=bool)[None, :]
-    if parents is not None:
-        breaks = uncompensated_breaks(q, parents, breaks, memo)
-    low = np.radians(min_deg)
-    for j in np.flatnonzero(breaks.any(axis=0)):
-        first, last, _ = event_bounds(np.flatnonzero(breaks[:, j]))
-        inside = (first >= 1) & (last <= F - 2)
-        first, last = first[inside], last[inside]
-        if not len(first):
-            continue
-        peak = np.array([resid[a : b + 1, j].max() for a, b in zip(first, last)])
-        off, turn = off_path(q[:, j], first, last)
-        stepped = row_norms(event_steps(q[:, j], first, last)) < 0.5 * peak  # spike_breaks' test (NaN: no)
-        short = np.where(last - first >= 2, last - first - 1, last - first + 1) <= max_frames
-        big = short & (off >= low) & ((off >= 2.0 * turn) | stepped)
-        for i in np.flatnonzero(big):
-            own = np.array(resid[:, j])
-            others = np.flatnonzero(big & (np.arange(len(first)) != i))
-            for k in [i] + ([int(others[np.argmax(peak[others])])] if len(others) else []):
-                own[max(first[k] - 2, 0) : last[k] + 3] = 0.0
-            if peak[i] < ratio * own.max():
-                continue
-            a, b = (first[i] + 1, last[i] - 1) if last[i] - first[i] >= 2 else (first[i], last[i])
-            if not np.asarray(judged[a : b + 1, j]).any():
-                out[a : b + 1, j] = True
     return out
 
 

@@ -27,11 +27,9 @@ from .coarse_cues import backs_offsets, hold_min_frames
 from .cues import (
     flag_causes,
     held_joints,
-    lone_spikes,
     mirrored_rotations,
     own_breaks,
     offsets_from_residuals,
-    spike_breaks,
     unshared_offsets,
     step_angles,
     uncompensated_breaks,
@@ -42,6 +40,7 @@ from .drifts import group_agreement, group_offset_change, group_offset_turn, not
 from .edge_swaps import edge_swaps, possible_swap_note
 from .neighbours import Neighbors, flagged_words, mean_motion_texture, nearest_words, unseen_words
 from .params import SSAParams
+from .spikes import lone_spikes, spike_breaks
 from .repeats import analysed_once, expand, inbetween_runs, kept_frames, repeat_runs, without_repeats
 from .freeze_bounds import bounded_holds, held_repeats
 from .freezes import frozen_channels
@@ -127,10 +126,10 @@ class Detection:
     radians between the input and the mean motion texture (NaN where not
     analysed); best_group : int8 (F, J) the group whose neighbours explain the
     cell best (-1 none); spikes : bool (F, J) the ``jumps`` that are spikes
-    (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None for a detection
+    (:func:`~mocapkit.cleaning.ssa.spikes.spike_breaks`; None for a detection
     saved before they were told apart); lone_spikes : bool (F, J) the spikes far
     past the joint's own motion on cells no neighbour word judges, flagged with
-    confirmation (:func:`~mocapkit.cleaning.ssa.cues.lone_spikes`; None for a
+    confirmation (:func:`~mocapkit.cleaning.ssa.spikes.lone_spikes`; None for a
     detection saved before); frozen : bool (F, J) the frozen channels, an exact repeat while the body moves that
     ends in a break, flagged whether or not a neighbour word judges them
     (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`; None for a detection saved before);

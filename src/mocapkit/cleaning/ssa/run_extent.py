@@ -31,7 +31,7 @@ def run_cells(low: np.ndarray, breaks: np.ndarray, spikes: np.ndarray | None, ma
 
     ``low`` (L,) bool, the run's frames digressing over half the threshold; ``breaks`` (L,) bool, its frames of
     the joint's own breaks (at least one; a step from f to f + 1 marks both); ``spikes`` (L,) bool or None, the
-    break frames that are spikes (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`; None: no break is taken for
+    break frames that are spikes (:func:`~mocapkit.cleaning.ssa.spikes.spike_breaks`; None: no break is taken for
     a spike); ``margin`` frames, the confirmation's margin at the take's rate. Frames are the run's own, 0-based.
     """
     low = np.asarray(low, dtype=bool)

@@ -1,6 +1,6 @@
 """A spike's flags: the frames the spike holds, not the frames beside it that digress.
 
-A spike (:func:`~mocapkit.cleaning.ssa.cues.spike_breaks`: the joint leaves its path for a few frames and comes
+A spike (:func:`~mocapkit.cleaning.ssa.spikes.spike_breaks`: the joint leaves its path for a few frames and comes
 back to it, such as a hand flipped 180 degrees for two frames and flipped back) is its own evidence: its frames
 lie off the path that the frames on both sides share. The frames beside it are on that path; the digression
 there says nothing about them. The neighbour words a spike leads astray span a whole word (0.6 s), and a
