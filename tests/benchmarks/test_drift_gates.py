@@ -1,26 +1,12 @@
 """benchmarks/drift_detection.py's gate_blockers: the cells each gate of the drift rule alone keeps from being evidence."""
 
-import importlib.util
-import sys
-from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
 
 from mocapkit.cleaning.ssa import SSAParams
 
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-
-
-def load(name):
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        spec = importlib.util.spec_from_file_location(f"bench_{name}", BENCHMARKS / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module
-    finally:
-        sys.path.remove(str(BENCHMARKS))
+from .helpers import load
 
 
 def test_each_cell_counted_under_the_one_gate_that_stops_it():

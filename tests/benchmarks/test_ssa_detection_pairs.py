@@ -6,7 +6,7 @@ import numpy as np
 
 from mocapkit.cleaning.ssa.cues import CAUSES
 
-from .test_ssa_detection_truth import load
+from .helpers import load
 
 
 def test_false_positive_pairs_name_the_joint_the_rule_and_the_untouched_takes_own():
