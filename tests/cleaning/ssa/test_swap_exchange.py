@@ -290,3 +290,25 @@ def test_a_foot_swap_exchanged_back_gets_no_foot_skate_cleanup():
     out = ssa.repair(bad, ssa.detect(bad))
     assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
     assert np.array_equal(out.rotations[~truth], bad.rotations[~truth])
+
+
+def test_the_clean_frame_between_two_shin_swaps_is_left_as_it_came():
+    """The bundled walk (walk-turn-left_exhausted_005) with its shins swapped over frames 36-50 and 52-65. The
+    walking legs hide the steps from the check of two breaks; the entry of the first and the exit of the second
+    join the take when exchanged, and frame 51 between them, exchanged with them, was named a swap too. Put back as
+    it came it joins the exchanged swaps beside it: a swap's break is its start or its end, not both. Exactly the
+    swapped cells."""
+    from mocapkit.cleaning.ssa.cues import midpoint_residuals
+    from mocapkit.cleaning.ssa.swap_exchange import joined_swaps
+    from mocapkit.motion import mirror_pairs
+
+    take, bad, knees = _knees_swapped(36, 50)
+    q = np.array(bad.rotations)
+    q[52:66, knees] = mirrored_rotations(take)[52:66, knees]
+    bad = dataclasses.replace(take, rotations=q)
+    truth = np.zeros(q.shape[:2], dtype=bool)
+    truth[36:51, knees] = truth[52:66, knees] = True
+    found = joined_swaps(q, mirrored_rotations(bad), midpoint_residuals(q), mirror_pairs(take.skeleton.joint_names),
+                         take.skeleton.parents, 30.0, 6.0, 1.0)
+    assert np.array_equal(found, truth)
+    assert np.array_equal(ssa.detect(bad).swaps, truth)

@@ -33,6 +33,7 @@ __all__ = [
     "motion_explained",
     "side_swaps",
     "mirrored_rotations",
+    "swap_reading",
     "swaps_from_residuals",
     "transient_offsets",
     "offsets_from_residuals",
@@ -249,16 +250,40 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         if held is not None:
             free = [not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)]
             first, last = first[free], last[free]
-        starts = [int(f) for f in first]
+        starts, whole = [int(f) for f in first], []
         if rotations is not None and mirrored is not None:
             whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]
-            for a, b in filter(None, whole):
-                out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True
             starts = [f for f, w in zip(starts, whole) if w is None
                       and _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
-        for a, b in _paired_events(starts, longest):
+        for a, b in swap_reading(starts, [w for w in whole if w is not None], longest):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
+
+
+def swap_reading(starts, whole, longest: int) -> list[tuple[int, int]]:
+    """The swaps ``(a, b)`` (steps ``a -> a + 1`` into the swap and ``b -> b + 1`` out of it) that a pair's break
+    events read as: ``starts`` the first frames of the events of one swap step each, ``whole`` the ``(a, b)`` steps
+    of the events that hold two (:func:`_whole_swap`), ``longest`` the most frames a swap spans.
+
+    An event of two steps is a whole short swap, or the clean frames between two swaps: the first swap's step out
+    and the next one's step in (a label swap is undone by the next step onto the partner's mirror image). The
+    second reading splits those events into their steps and pairs every step in time order
+    (:func:`_paired_events`); it is taken where it leaves fewer steps unpaired than the first (the events of one
+    step paired in time order beside the whole swaps), or as many while a whole swap lies inside a swap the first
+    pairs (its frames exchanged twice, so back as they came). Bandai Namco call_normal_001 with
+    ``corrupt.real_errors(kinds=("swap",), seed=0)``: the feet swapped over frames 43-57 and 62-75 break at 42,
+    57, 61 and 75, the middle two one event; read whole, the clean frames 58-61 were the swap found and neither
+    real swap was.
+    """
+    whole = [(int(a), int(b)) for a, b in whole]
+    pairs = _paired_events(starts, longest)
+    if not whole:
+        return pairs
+    steps = sorted(list(starts) + [f for w in whole for f in w])
+    split = _paired_events(steps, longest)
+    left, left_split = len(starts) - 2 * len(pairs), len(steps) - 2 * len(split)
+    nested = any(a <= c and d <= b for a, b in pairs for c, d in whole)
+    return split if left_split < left or left_split == left and nested else pairs + whole
 
 
 def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: int, p: int) -> tuple | None:

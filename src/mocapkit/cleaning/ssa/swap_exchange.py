@@ -46,7 +46,7 @@ import numpy as np
 from ... import rotations as R
 from ..runs import true_runs
 
-__all__ = ["EXTENT_S", "PartnerSwap", "exchanged_cells", "joined_swaps", "pair_exchange", "parent_orientations",
+__all__ = ["EXTENT_S", "PartnerSwap", "clean_stretches", "exchanged_cells", "joined_swaps", "pair_exchange", "parent_orientations",
            "partner_swaps", "root_depths", "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
 
 #: the exchanged track must step into and out of the run less than this share of the input's step there
@@ -273,8 +273,35 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
                 if exchange_joins(track, mirrored, (j, p), a + 1, b + 1, ratio=ratio, frames=body):
                     out[a + 1 : b + 1, [j, p]] = taken[a + 1 : b + 1] = True
                     track[a + 1 : b + 1, [j, p]] = mirrored[a + 1 : b + 1, [j, p]]
+                    for s, e in clean_stretches(track, q, (j, p), a, b, steps, parents, ratio):
+                        out[s:e, [j, p]] = False
+                        track[s:e, [j, p]] = q[s:e, [j, p]]
                     body[a + 1 : b + 1] = parent_orientations(track[a + 1 : b + 1], parents)
                     break
+    return out
+
+
+def clean_stretches(track: np.ndarray, q: np.ndarray, joints, a: int, b: int, steps, parents,
+                    ratio: float = SWAP_JOIN_RATIO) -> list[tuple[int, int]]:
+    """The stretches ``(s, e)`` (frames ``s .. e - 1``) of a swap run exchanged over frames ``a + 1 .. b`` that are
+    the clean frames between two swaps: a step ``m -> m + 1`` out of the first and a later one ``n -> n + 1`` into
+    the next, both among the pair's break steps ``steps`` inside the run, where the frames ``m + 1 .. n`` put back
+    as they came join the exchanged take (:func:`exchange_joins`, ``q`` (F, J, 4) the input taking the place of the
+    mirror image) at both ends. A swap's break is its start or its end, not both: exchanged with the swaps beside
+    them, those frames step onto their partner's mirror image and back, as a swap of their own does. Bandai Namco
+    walk-turn-left_exhausted_005 (tests/data) with its shins swapped over frames 36-50 and 52-65: the entry of the
+    first and the exit of the second join the take, and frame 51 between them was exchanged with them. ``track``
+    (F, J, 4) the take with the run exchanged; ``joints`` the pair; ``parents`` (J,) the skeleton's."""
+    inner = [m for m in steps if a < m < b]
+    out, after = [], a
+    for i, m in enumerate(inner):
+        if m <= after:
+            continue
+        for n in inner[i + 1 :]:
+            if exchange_joins(track, q, joints, m + 1, n + 1, parents, ratio):
+                out.append((m + 1, n + 1))
+                after = n
+                break
     return out
 
 
