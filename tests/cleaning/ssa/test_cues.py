@@ -803,16 +803,16 @@ def test_an_event_of_two_steps_between_two_swaps_is_their_end_and_start():
 
 
 @pytest.mark.parametrize("name, runs", [
-    ("dataset-1_bow_active_001.bvh", [(19, 31), (33, 46)]),  # one clean frame between: was read as 19-46
-    ("dataset-1_bye_giant_001.bvh", [(5, 17), (22, 35)]),  # four clean frames between: were read as a swap, 18-21
+    ("dataset-1_bow_active_001.bvh", [(19, 31), (33, 46)]),  # one clean frame between (read whole: 19-46)
+    ("dataset-1_bye_giant_001.bvh", [(5, 17), (22, 35)]),  # four clean frames between (read whole: a swap, 18-21)
 ])
 def test_two_forearm_swaps_with_a_clean_stretch_between_are_found_each_on_its_own(name, runs):
     """Bundled Bandai Namco takes (30 fps) with their forearms swapped twice, each taking its partner's mirrored
     rotation as ``corrupt --kind swap`` does (every swapped cell 15 deg or more off its partner's mirror image).
     The step out of the first swap and the step into the second fall in one break event: detection names exactly
     the swapped cells, and the repair exchanges them back to the clean take's values and the clean frames between
-    not at all (exchanged, they came out 31 and 46 deg off; the breaks at their ends still confirm a small
-    digression there on bow_active_001, repaired within 2 deg)."""
+    not at all (exchanged, they would be 31 and 46 deg off; the breaks at their ends confirm a small digression
+    there on bow_active_001, repaired within 2 deg)."""
     take = mocapkit.load(Path(__file__).parents[2] / "data" / name)
     names = take.skeleton.joint_names
     arms = [names.index("LowerArm_L"), names.index("LowerArm_R")]

@@ -295,7 +295,7 @@ def test_a_foot_swap_exchanged_back_gets_no_foot_skate_cleanup():
 def test_the_clean_frame_between_two_shin_swaps_is_left_as_it_came():
     """The bundled walk (walk-turn-left_exhausted_005) with its shins swapped over frames 36-50 and 52-65. The
     walking legs hide the steps from the check of two breaks; the entry of the first and the exit of the second
-    join the take when exchanged, and frame 51 between them, exchanged with them, was named a swap too. Put back as
+    join the take when exchanged, and the run between them holds frame 51. Put back as
     it came it joins the exchanged swaps beside it: a swap's break is its start or its end, not both. Exactly the
     swapped cells."""
     from mocapkit.cleaning.ssa.cues import midpoint_residuals

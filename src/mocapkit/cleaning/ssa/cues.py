@@ -272,8 +272,8 @@ def swap_reading(starts, whole, longest: int) -> list[tuple[int, int]]:
     step paired in time order beside the whole swaps), or as many while a whole swap lies inside a swap the first
     pairs (its frames exchanged twice, so back as they came). Bandai Namco call_normal_001 with
     ``corrupt.real_errors(kinds=("swap",), seed=0)``: the feet swapped over frames 43-57 and 62-75 break at 42,
-    57, 61 and 75, the middle two one event; read whole, the clean frames 58-61 were the swap found and neither
-    real swap was.
+    57, 61 and 75, the middle two one event; read whole, that event is a swap over the clean frames 58-61 and
+    neither real swap is found.
     """
     whole = [(int(a), int(b)) for a, b in whole]
     pairs = _paired_events(starts, longest)

@@ -290,7 +290,7 @@ def clean_stretches(track: np.ndarray, q: np.ndarray, joints, a: int, b: int, st
     mirror image) at both ends. A swap's break is its start or its end, not both: exchanged with the swaps beside
     them, those frames step onto their partner's mirror image and back, as a swap of their own does. Bandai Namco
     walk-turn-left_exhausted_005 (tests/data) with its shins swapped over frames 36-50 and 52-65: the entry of the
-    first and the exit of the second join the take, and frame 51 between them was exchanged with them. ``track``
+    first and the exit of the second join the take, and the run between them holds the clean frame 51. ``track``
     (F, J, 4) the take with the run exchanged; ``joints`` the pair; ``parents`` (J,) the skeleton's."""
     inner = [m for m in steps if a < m < b]
     out, after = [], a
