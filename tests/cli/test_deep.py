@@ -491,8 +491,9 @@ def test_train_reads_amc_files_with_asf_and_amc_fps(tmp_path):
 
 
 def test_fill_fills_a_lost_bandai_pelvis_position_and_says_how(tmp_path):
-    """Trial A, finding 1: a Bandai take's Hips (whose animated offset carries the path) lost over half a second was
-    reported filled and written with NaN positions; now they are the line between the gap's ends, and said so."""
+    """A Bandai take's Hips (whose animated offset carries the path) lost over half a second, rotation included: its
+    positions are filled (the line or the spline: the rotation is a fill too, so not the feet's contacts), and
+    said so."""
     import dataclasses
 
     take = mocapkit.load(Path(__file__).resolve().parents[1] / "data" / "bandai_dance-short_normal_001_first60.bvh")
@@ -505,8 +506,38 @@ def test_fill_fills_a_lost_bandai_pelvis_position_and_says_how(tmp_path):
     assert code == 0, err
     text = " ".join(out.split())
     assert "15 missing joint samples filled by EBD's gap prior" in text
-    assert "the 15 missing position(s) among them interpolated linearly" in text
+    assert ("the 15 missing Hips position(s) among them from the feet's contacts, a cubic spline or the line between"
+            " the gap's ends, whichever refills the take's measured stretches best") in text
+    assert "interpolated linearly" not in text
     assert not np.isnan(mocapkit.load(gout).translations).any()
+
+
+def test_fill_fills_a_bandai_pelvis_path_written_nan_from_the_feet(tmp_path):
+    """A Bandai walk's Hips position channels written ``nan`` for 1.3 s (frames 40-79), its rotation measured:
+    `fill` wrote the line between the gap's ends, 4.7 cm RMS off; now the feet's contacts carry the path, within
+    1 cm, and every measured number of the file is written as it was."""
+    from mocapkit.joints import unit_scale_cm
+
+    src = Path(__file__).resolve().parents[1] / "data" / "dataset-2_walk_normal_001_first120.bvh"
+    lines = src.read_text().splitlines()
+    first = next(i for i, s in enumerate(lines) if s.startswith("Frame Time")) + 1
+    for i in range(first + 40, first + 80):
+        row = lines[i].split()
+        row[6:9] = ["nan"] * 3  # Hips: Xposition Yposition Zposition
+        lines[i] = " ".join(row)
+    gin, gout = tmp_path / "hips.bvh", tmp_path / "out.bvh"
+    gin.write_text("\n".join(lines) + "\n")
+    code, out, err = run("fill", gin, "-o", gout)
+    assert code == 0, err
+    assert "the 40 missing Hips position(s) among them from the feet's contacts" in " ".join(out.split())
+    truth, got = mocapkit.load(src), mocapkit.load(gout)
+    d = got.translations[40:80, 1] - truth.translations[40:80, 1]
+    assert np.sqrt(np.mean(np.sum(d ** 2, axis=-1))) * unit_scale_cm(truth.skeleton) < 1.0
+    written = gout.read_text().splitlines()
+    at = next(i for i, s in enumerate(written) if s.startswith("Frame Time")) + 1
+    for i in range(120):
+        keep = [k for k, _ in enumerate(lines[first + i].split()) if not 40 <= i < 80 or k not in (6, 7, 8)]
+        assert [written[at + i].split()[k] for k in keep] == [lines[first + i].split()[k] for k in keep]
 
 
 def test_fill_fills_channels_written_as_zero_as_clean_does(tmp_path):

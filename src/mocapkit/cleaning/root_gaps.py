@@ -24,6 +24,13 @@ body says something about it, else by a curve that meets the gap's ends and thei
   one nearest the truth there fills the gap (the take's own evidence: a long take of a steady gait gives the
   regression enough frames, a short one picks the curve).
 
+On a game rig whose root stays on the floor and whose pelvis carries the body's path in its animated offset (the
+Bandai Namco rig's ``Hips`` over ``joint_Root``), :func:`fill_pelvis` fills the pelvis' path alike: found by its
+role, taken to the world through the joints above it, filled by the feet's contacts, the cubic spline or the line
+between the gap's ends, whichever refills the take's own measured stretches best (:func:`fill_pelvis_path`), and
+the contacts only where the pelvis' rotation is measured over the gap. The pelvis' rotation there is the
+networks' (they read and write it as any other joint's).
+
 Runs touching the take's first or last frame hold the nearest measured value (one end: nothing to meet).
 Measured root rotations and position axes are returned bit-identical. On gaps of 0.5-2 s cut into real takes
 (``../shared/data``; 53 HDM05 AMC gaps of each kind in takes other than those the constants were chosen on, 14 CMU
@@ -47,7 +54,7 @@ from .deep.prior import hermite_blend
 from .gapfill import fill_channels
 from .runs import column_runs
 
-__all__ = ["fill_root", "fill_root_rotation", "contact_path", "heading_and_tilt", "CONTACT_MISS_CM",
+__all__ = ["fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path", "heading_and_tilt", "CONTACT_MISS_CM",
            "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
 
 #: Centimetres: the foot contacts' path across a position gap is kept where it lands this close to the measured
@@ -258,3 +265,106 @@ def fill_root(motion: Motion, body: Motion | None = None) -> tuple[Motion, dict]
     elif pos_gap.all():  # nothing to fill from: an axis never measured at the origin, the others held
         pos = np.where(np.isnan(pos_in), 0.0, fill_channels(pos_in, "linear"))
     return dataclasses.replace(body, rotations=rot, root_positions=pos), how
+
+
+def _path_candidates(w: np.ndarray, gap: np.ndarray, at: np.ndarray, up: np.ndarray, cm: float,
+                     fps: float) -> dict[str, np.ndarray]:
+    """The pelvis paths (F, 3) of each candidate fill of the ``gap`` rows (F,) of ``w`` (F, 3, world axes, file
+    units): ``"line"`` the line between the gap's ends, ``"spline"`` the cubic spline, ``"contacts"`` the feet's
+    contacts (:func:`contact_path` with the feet ``at`` (F, n, 3) relative to the pelvis; the spline where the path
+    misses the far end by more than :data:`CONTACT_MISS_CM`). Runs touching the take's ends hold."""
+    cut = np.where(gap[:, None], np.nan, w)
+    spline = fill_channels(cut, "cubic", fps)
+    contacts = np.array(spline)
+    for s, e in _runs(gap):
+        if 0 < s and e < len(w):
+            path, miss = contact_path(spline, s, e, at, up)
+            if miss * cm <= CONTACT_MISS_CM:
+                contacts[s:e] = path
+    return {"line": fill_channels(cut, "linear"), "spline": spline, "contacts": contacts}
+
+
+def fill_pelvis_path(w: np.ndarray, gap: np.ndarray, at: np.ndarray, up: np.ndarray, cm: float, fps: float,
+                     turned: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
+    """The pelvis path ``w`` (F, 3; world axes, file units) with its ``gap`` rows (F,) filled, measured rows
+    bit-identical: each gap by the candidate of :func:`_path_candidates` nearest the truth on
+    :data:`CHECK_STRETCHES` stretches of the same length cut from the frames where the path is measured (as
+    :func:`fill_root_rotation` chooses); where no stretch fits, the feet's contacts as :func:`fill_root` takes
+    them. ``at`` (F, n, 3): the foot joints relative to the pelvis in world axes; ``cm``: centimetres per file
+    unit; ``turned`` (F,) bool: the frames whose pelvis rotation is itself a fill. A gap that meets such a frame is
+    not filled from the contacts: a pelvis turned a few degrees off swings the feet about it, and the stretches,
+    whose rotation is measured, cannot tell how far (on the Bandai Namco takes, the networks' rotation, 3 deg off
+    at the median, put the contacts' path further off the truth than the line on most gaps). Returns ``(w,
+    chosen)``: ``chosen`` maps each gap's ``(start, end)`` to ``"line"``, ``"spline"`` or ``"contacts"``."""
+    full = _path_candidates(w, gap, at, up, cm, fps)
+    F = len(w)
+    turned = np.zeros(F, dtype=bool) if turned is None else np.asarray(turned, dtype=bool)
+    out = np.array(w)
+    chosen = {}
+    score: dict[int, dict[str, float]] = {}
+    for s, e in _runs(gap):
+        n = e - s
+        if n not in score and 0 < s and e < F:
+            score[n] = dict.fromkeys(full, 0.0)
+            for p in _stretches(gap, n):
+                trial = gap.copy()
+                trial[p:p + n] = True
+                for name, got in _path_candidates(w, trial, at, up, cm, fps).items():
+                    score[n][name] += float(np.mean(np.sum((got[p:p + n] - w[p:p + n]) ** 2, axis=-1)))
+        tried = dict(score.get(n) or {})
+        if turned[max(s - 1, 0):e + 1].any():
+            tried.pop("contacts", None)
+            best = min(tried, key=tried.get) if tried and any(tried.values()) else "line"
+        else:
+            best = min(tried, key=tried.get) if tried and any(tried.values()) else "contacts"
+        if best == "contacts" and np.array_equal(full["contacts"][s:e], full["spline"][s:e]):
+            best = "spline"  # the contacts missed the far end (CONTACT_MISS_CM): the spline filled it
+        chosen[(s, e)] = best
+        out[s:e] = full[best][s:e]
+    return out, chosen
+
+
+def fill_pelvis(motion: Motion, body: Motion) -> tuple[Motion, dict]:
+    """``body`` (``motion`` with its joints' rotations filled and its animated offsets bridged) with the pelvis'
+    missing animated offset filled from the body, on a game rig whose root stays on the floor and whose pelvis
+    carries the body's path in its animated offset (``motion.translations[:, pelvis]``, (F, 3) file units: the
+    Bandai Namco rig's ``Hips`` over ``joint_Root``), every measured number of ``motion`` bit-identical.
+
+    The pelvis is found by its role (:func:`mocapkit.rigs.pelvis_index`). Its path is taken to the world through
+    the joints above it (in ``body``), filled there by :func:`fill_pelvis_path` (the feet's contacts, the cubic
+    spline or the line, whichever refills the take's own measured stretches best), and brought back into the
+    parent's frame. Its rotation is ``body``'s: the networks read and write the pelvis' rotation on that rig, as
+    any other joint's. A rig whose root is the pelvis is :func:`fill_root`'s, and a rig without animated offsets,
+    feet, or a measured frame of the pelvis' offset keeps ``body``'s. Returns ``(motion, how)``: ``how`` maps
+    ``("position", start, end)`` of each interior gap to what filled it.
+    """
+    from ..features import find_up_axis
+    from ..rigs import pelvis_index
+
+    tr = motion.translations
+    sk = motion.skeleton
+    j = pelvis_index(sk)
+    if j == 0 or tr is None or body.translations is None:
+        return body, {}
+    off_in = tr[:, j]
+    gap = np.isnan(off_in).any(axis=-1)
+    if not gap.any() or gap.all():
+        return body, {}
+    try:
+        feet = [find_joint(sk, r) for r in FOOT_ROLES]
+        cm = unit_scale_cm(sk)
+    except (KeyError, SkeletonError, ValueError):
+        return body, {}
+    parent = int(sk.parents[j])
+    grot, gpos = body.global_transforms()
+    up = find_up_axis(sk, gpos)
+    above, base = grot[:, parent], gpos[:, parent]
+    w = base + R.quaternion_rotate(above, np.where(gap[:, None], 0.0, off_in))
+    w[gap] = np.nan
+    at = gpos[:, feet] - gpos[:, j][:, None]  # (F, n, 3): the feet relative to the pelvis, in world axes
+    turned = np.isnan(motion.rotations[:, j]).any(axis=-1)
+    filled, chosen = fill_pelvis_path(w, gap, at, up, cm, motion.fps, turned)
+    local = R.quaternion_rotate(R.quaternion_conjugate(above), filled - base)
+    trans = np.array(body.translations)
+    trans[:, j] = np.where(np.isnan(off_in), local, off_in)
+    return dataclasses.replace(body, translations=trans), {("position", s, e): c for (s, e), c in chosen.items()}

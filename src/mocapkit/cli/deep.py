@@ -236,11 +236,22 @@ def fill(
     if zeros[1]:
         line += f" ({int(zeros[0].sum())} of them written as 0 where the capture lost data)"
     root = int(np.isnan(gappy.root_positions).any(axis=-1).sum())  # the networks fill rotations: positions apart
-    moved = 0 if gappy.translations is None else int(np.isnan(gappy.translations[:, 1:]).any(axis=-1).sum())
+    pelvis, hips, moved = 0, 0, 0
+    if gappy.translations is not None:  # a game rig's pelvis carries the path in its animated offset (root_gaps)
+        from ..rigs import pelvis_index
+
+        lost = np.isnan(gappy.translations).any(axis=-1)
+        pelvis = pelvis_index(gappy.skeleton)
+        hips = int(lost[:, pelvis].sum()) if pelvis else 0
+        moved = int(lost[:, 1:].sum()) - hips
     if root and method != deep.FALLBACK_FILL:  # cleaning.root_gaps: the feet's contacts, else a spline
         line += f" (the {root} missing root position(s) among them from the feet's contacts or a cubic spline)"
-    if moved and method != deep.FALLBACK_FILL:  # an animated offset's gap is a straight line
-        line += f" (the {moved} missing position(s) among them interpolated linearly)"
+    if hips and method != deep.FALLBACK_FILL:  # cleaning.root_gaps.fill_pelvis
+        line += (f" (the {hips} missing {gappy.skeleton.joint_names[pelvis]} position(s) among them from the feet's"
+                 " contacts, a cubic spline or the line between the gap's ends, whichever refills the take's"
+                 " measured stretches best)")
+    if moved and method != deep.FALLBACK_FILL:  # any other animated offset's gap is a straight line
+        line += f" (the {moved} missing position(s) of other joints among them interpolated linearly)"
     if ref is not None:
         line += (f"; mean rotation error of the filled joints against {reference.name}: "
                  f"{filled_error_deg(ref, filled, missing):.2f} deg")

@@ -25,7 +25,7 @@ from ...words import frame_span
 from ...io import atomic_write
 from ...motion import Motion
 from ..measured import measured_rotations
-from ..root_gaps import fill_root
+from ..root_gaps import fill_pelvis, fill_root
 from .channels import ChannelLayout, channel_joints, lerp_fill, with_measured
 from .doubt import doubtful_runs
 from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
@@ -733,10 +733,13 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     A missing root rotation or position is not the networks' to fill: it is
     filled from the body (:func:`mocapkit.cleaning.root_gaps.fill_root`: the
     feet's contacts carry the position, the heading's spline and the body's
-    tilt the rotation); a missing animated offset (``motion.translations``,
-    (F, J, 3)) is interpolated linearly: on a game rig whose pelvis carries
-    the body's path (Bandai Namco's Hips over a still ``joint_Root``) that is
-    the root position under another name.
+    tilt the rotation). On a game rig whose pelvis carries the body's path
+    in its animated offset (``motion.translations``, (F, J, 3): Bandai
+    Namco's Hips over a still ``joint_Root``) a missing pelvis offset is
+    filled from the body too (:func:`mocapkit.cleaning.root_gaps.fill_pelvis`:
+    the feet's contacts, a cubic spline or the line); any other joint's
+    missing animated offset is interpolated linearly (on that rig they are
+    constant through a take, so the line holds them).
     ``model`` / ``denoiser``: models or files, None for the shipped pair that serves the take's rig (the Bandai
     Namco one, CC BY-NC, on that rig): a model whose licence restricts use is said by a
     :class:`~mocapkit.errors.LicenceWarning`, as the CLI says it.
@@ -791,6 +794,8 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
         F, J = tr.shape[:2]
         line = lerp_fill(tr.reshape(F, 3 * J)).reshape(F, J, 3)
         res = dataclasses.replace(res, translations=np.where(np.isnan(tr), line, tr))
+    if tr is not None:  # a game rig's pelvis (its path in its animated offset): from the body, as a pelvis root's
+        res = fill_pelvis(motion, res)[0]
     return res, doubts
 
 
