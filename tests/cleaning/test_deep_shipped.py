@@ -248,9 +248,13 @@ def test_a_lost_bandai_pelvis_position_is_filled_as_the_root_position_is(dance, 
     out, _, _ = deep.fill_or_fallback(gapped, method=method)
     assert not out.missing().any() and not np.isnan(out.translations).any()
     assert np.array_equal(out.translations[~np.isnan(tr)], tr[~np.isnan(tr)])  # observed offsets bit-identical
-    t = (np.arange(20, 35) - 19) / 16.0  # the line between the frames either side, as a root position's gap
+    t = (np.arange(20, 35) - 19) / 16.0  # the line between the frames either side
     line = (1 - t)[:, None] * dance.translations[19, j] + t[:, None] * dance.translations[35, j]
-    assert np.allclose(out.translations[20:35, j], line)
+    if rotation_too:  # a filled rotation would swing the feet: no stretch of 60 frames to judge by, the line
+        assert np.allclose(out.translations[20:35, j], line)
+    else:  # the feet's contacts (root_gaps.fill_pelvis): 0.07 -> 0.01 cm RMS off on this near-still stretch
+        off = np.sqrt(np.mean(np.sum((out.translations[20:35, j] - dance.translations[20:35, j]) ** 2, axis=-1)))
+        assert off < 0.03
     if method == "auto":
         res = mocapkit.clean(gapped)  # fill is a default step: no "detect needs complete frames" any more
         assert not res.motion.missing().any()
