@@ -34,12 +34,12 @@ none the rule was chosen on) with the position channels written ``nan`` the path
 the line (median 5.1 -> 0.6), and 7.4 -> 7.0 with the rotation lost too (the networks' rotation, 3 deg off at the
 median, swings the feet about the pelvis: the contacts are not used there).
 
-Runs touching the take's first or last frame hold the nearest measured value (one end: nothing to meet).
-Measured root rotations and position axes are returned bit-identical. On gaps of 0.5-2 s cut into real takes
-(``../shared/data``; 53 HDM05 AMC gaps of each kind in takes other than those the constants were chosen on, 14 CMU
-AMC and 12 CMU BVH at other frames of the same takes) the position is 15.3 -> 5.5, 10.1 -> 9.1, 16.0 -> 11.2 cm RMS off against the line
-between the gap's ends, the rotation 12.7 -> 11.2, 27.5 -> 25.5, 22.3 -> 23.3 deg: a heading that turns on
-through the gap (a spin) is not in the body's pose, and neither fill finds it.
+Runs touching the take's first or last frame hold the nearest measured value (one end: nothing to meet). Measured root
+rotations and position axes are returned bit-identical. On gaps of 0.5-2 s cut into real takes (``../shared/data``; 53
+HDM05 AMC gaps of each kind in takes other than those the constants were chosen on, 14 CMU AMC and 12 CMU BVH at other
+frames of the same takes) the position is 15.3 -> 5.5, 10.1 -> 9.1, 16.0 -> 11.2 cm RMS off against the line between
+the gap's ends, the rotation 12.7 -> 11.2, 27.5 -> 25.5, 22.3 -> 23.3 deg: a heading that turns on through the gap (a
+spin) is not in the body's pose, and neither fill finds it.
 """
 
 from __future__ import annotations
@@ -50,20 +50,22 @@ import numpy as np
 
 from .. import rotations as R
 from ..errors import SkeletonError
-from ..features import detect_up_axis
+from ..features import detect_up_axis, find_up_axis
 from ..joints import find_joint, unit_scale_cm
 from ..motion import Motion
+from ..rigs import pelvis_index
 from .deep.prior import hermite_blend
 from .gapfill import fill_channels
 from .runs import column_runs
 
-__all__ = ["fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path", "heading_and_tilt", "CONTACT_MISS_CM",
-           "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
+__all__ = ["fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path", "heading_and_tilt",
+           "CONTACT_MISS_CM", "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
 
 #: Centimetres: the foot contacts' path across a position gap is kept where it lands this close to the measured
 #: frame after the gap (bent onto it), else the cubic spline fills the gap (the feet were not planted).
 CONTACT_MISS_CM = 20.0
-#: Stretches of the take, as long as a rotation gap, on which the candidate fills are tried (:func:`fill_root_rotation`).
+#: Stretches of the take, as long as a gap, on which the candidate fills are tried (:func:`fill_root_rotation`,
+#: :func:`fill_pelvis_path`).
 CHECK_STRETCHES = 6
 #: Frames kept clear of any gap on each side of a trial stretch.
 CHECK_MARGIN = 10
@@ -290,18 +292,18 @@ def _path_candidates(w: np.ndarray, gap: np.ndarray, at: np.ndarray, up: np.ndar
 def fill_pelvis_path(w: np.ndarray, gap: np.ndarray, at: np.ndarray, up: np.ndarray, cm: float, fps: float,
                      turned: np.ndarray | None = None) -> tuple[np.ndarray, dict]:
     """The pelvis path ``w`` (F, 3; world axes, file units) with its ``gap`` rows (F,) filled, measured rows
-    bit-identical: each gap by the candidate of :func:`_path_candidates` nearest the truth on
-    :data:`CHECK_STRETCHES` stretches of the same length cut from the frames where the path is measured (as
-    :func:`fill_root_rotation` chooses): a gap whose contacts reach its far end by those stretches where they reached
-    theirs (the contacts, the spline or the line), any other by all of them (the spline or the line); where no
-    stretch fits, the feet's contacts as :func:`fill_root` takes them, else the line. ``at`` (F, n, 3): the foot joints relative to the pelvis in world axes; ``cm``: centimetres per file
-    unit; ``turned`` (F,) bool: the frames whose pelvis rotation is itself a fill. A gap that meets such a frame is
-    not filled from the contacts: a pelvis turned a few degrees off swings the feet about it, and the stretches,
-    whose rotation is measured, cannot tell how far (on the Bandai Namco takes, the networks' rotation, 3 deg off
-    at the median, put the contacts' path further off the truth than the line on most gaps); nor is a gap whose
-    contacts miss its far end by more than :data:`CONTACT_MISS_CM` (the feet were not planted: the stretches'
-    evidence for the contacts does not hold there). Returns ``(w,
-    chosen)``: ``chosen`` maps each gap's ``(start, end)`` to ``"line"``, ``"spline"`` or ``"contacts"``."""
+    bit-identical: each gap by the candidate of :func:`_path_candidates` nearest the truth on :data:`CHECK_STRETCHES`
+    stretches of the same length cut from the frames where the path is measured (as :func:`fill_root_rotation`
+    chooses): a gap whose contacts reach its far end by those stretches where they reached theirs (the contacts, the
+    spline or the line), any other by all of them (the spline or the line); where no stretch fits, the feet's contacts
+    as :func:`fill_root` takes them, else the line. ``at`` (F, n, 3): the foot joints relative to the pelvis in world
+    axes; ``cm``: centimetres per file unit; ``turned`` (F,) bool: the frames whose pelvis rotation is itself a fill.
+    A gap that meets such a frame is not filled from the contacts: a pelvis turned a few degrees off swings the feet
+    about it, and the stretches, whose rotation is measured, cannot tell how far (on the Bandai Namco takes, the
+    networks' rotation, 3 deg off at the median, put the contacts' path further off the truth than the line on most
+    gaps); nor is a gap whose contacts miss its far end by more than :data:`CONTACT_MISS_CM` (the feet were not
+    planted: the stretches' evidence for the contacts does not hold there). Returns ``(w, chosen)``: ``chosen`` maps
+    each gap's ``(start, end)`` to ``"line"``, ``"spline"`` or ``"contacts"``."""
     full = _path_candidates(w, gap, at, up, cm, fps)
     F = len(w)
     turned = np.zeros(F, dtype=bool) if turned is None else np.asarray(turned, dtype=bool)
@@ -348,9 +350,6 @@ def fill_pelvis(motion: Motion, body: Motion) -> tuple[Motion, dict]:
     feet, or a measured frame of the pelvis' offset keeps ``body``'s. Returns ``(motion, how)``: ``how`` maps
     ``("position", start, end)`` of each interior gap to what filled it.
     """
-    from ..features import find_up_axis
-    from ..rigs import pelvis_index
-
     tr = motion.translations
     sk = motion.skeleton
     j = pelvis_index(sk)

@@ -761,16 +761,17 @@ def flag_causes(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float,
                 drifts=None, spikes=None, judged=None, lone=None, reversed_=None, frozen=None) -> np.ndarray:
     """(F, J) :data:`CAUSE_DTYPE`: which rules flag each cell, one bit per entry of :data:`CAUSES` (0: not flagged).
 
-    The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with
-    ``confirm``, digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets
-    and smooth drifts (``drifts``, bool (F, J) or None: none) and the :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (``lone``, bool
-    (F, J) or None: none); the breaks that are the two steps of a flagged offset that is no swap (the
-    offsets repair takes away) confirm no digression (:func:`~mocapkit.cleaning.ssa.step_pairs.offset_step_breaks`); without, ``mdm > threshold`` alone (the "digression" bit). A cell two rules flag
-    has both bits, so a report can say why each change was made. ``reversed_`` (F, J) bool or None: the swap
-    cells whose run plays better backwards (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named
-    ``reversed`` instead of ``swap`` (the same cells flagged). ``frozen`` (F, J) bool or None: the frozen
-    channels (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`), judged or not: the break that ends one
-    confirms its frozen cells only (:func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_breaks`).
+    The arguments are :func:`flag_rule`'s, whose flags are exactly the cells with a bit set: with ``confirm``,
+    digressions confirmed by a break (:func:`confirm_flags`), holds, swaps, transient offsets and smooth drifts
+    (``drifts``, bool (F, J) or None: none) and the :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (``lone``, bool
+    (F, J) or None: none); the breaks that are the two steps of a flagged offset that is no swap (the offsets repair
+    takes away) confirm no digression (:func:`~mocapkit.cleaning.ssa.step_pairs.offset_step_breaks`); without, ``mdm >
+    threshold`` alone (the "digression" bit). A cell two rules flag has both bits, so a report can say why each change
+    was made. ``reversed_`` (F, J) bool or None: the swap cells whose run plays better backwards
+    (:func:`~mocapkit.cleaning.ssa.reversals.reversed_runs`), named ``reversed`` instead of ``swap`` (the same cells
+    flagged). ``frozen`` (F, J) bool or None: the frozen channels
+    (:func:`~mocapkit.cleaning.ssa.freezes.frozen_channels`), judged or not: the break that ends one confirms its
+    frozen cells only (:func:`~mocapkit.cleaning.ssa.freeze_bounds.bounded_breaks`).
     """
     bit = {name: CAUSE_DTYPE(1 << i) for i, (name, _) in enumerate(CAUSES)}
     mdm = np.asarray(mdm)
@@ -800,13 +801,13 @@ def cause_names(causes) -> list[str]:
 def flag_rule(mdm, jumps, holds, swaps, offsets, threshold: float, fps: float, confirm: bool, margin_s,
               drifts=None, spikes=None, judged=None, lone=None, reversed_=None) -> np.ndarray:
     """The flags of :func:`detect` and :meth:`Detection.with_threshold`: confirmed digressions, holds, swaps,
-    transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's
-    ``mdm > threshold`` without confirmation. ``spikes``: :func:`~mocapkit.cleaning.ssa.spikes.spike_breaks` of the take (None: no run is
-    cut as a spike's, as in detections made before it). ``judged`` (F, J) bool, the cells the
-    context judged (a finite digression; None: all): a break outside them confirms no digression. The
-    digression beside such a break (at a take's end that no neighbour word covers) says nothing about the
-    break, and repairing it would change the frames before an error and leave the error. Which rule flags
-    each cell: :func:`flag_causes`; ``lone``: :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (None: none); ``reversed_`` names cells only."""
+    transient offsets and smooth drifts (``drifts``, bool (F, J) or None: none), or the paper's ``mdm > threshold``
+    without confirmation. ``spikes``: :func:`~mocapkit.cleaning.ssa.spikes.spike_breaks` of the take (None: no run is
+    cut as a spike's, as in detections made before it). ``judged`` (F, J) bool, the cells the context judged (a finite
+    digression; None: all): a break outside them confirms no digression. The digression beside such a break (at a
+    take's end that no neighbour word covers) says nothing about the break, and repairing it would change the frames
+    before an error and leave the error. Which rule flags each cell: :func:`flag_causes`; ``lone``:
+    :func:`~mocapkit.cleaning.ssa.spikes.lone_spikes` (None: none); ``reversed_`` names cells only."""
     return flag_causes(mdm, jumps, holds, swaps, offsets, threshold, fps, confirm, margin_s, drifts, spikes,
                        judged, lone, reversed_) != 0
 
