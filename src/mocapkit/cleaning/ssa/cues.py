@@ -15,7 +15,7 @@ import numpy as np
 from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
-from .events import event_bounds
+from .events import event_bounds, pair_events
 from .freeze_bounds import bounded_breaks
 from .freezes import recurring
 from .run_extent import run_cells
@@ -228,8 +228,6 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
     (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`); an event holding
     one on both joints of the pair is that swap's, paired with no other.
     """
-    from scipy import ndimage
-
     from ...motion import mirror_pairs
 
     F, J = resid.shape
@@ -242,14 +240,9 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         p = int(perm[j])
         if p <= j or not (use[j] and use[p]):
             continue
-        both = ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool)) & breaks[:, p]
-        frames = np.flatnonzero(both)
-        if len(frames) < 2:
+        first, last = pair_events(breaks, j, p, held)
+        if not len(first):
             continue
-        first, last, _ = event_bounds(frames)
-        if held is not None:
-            free = [not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)]
-            first, last = first[free], last[free]
         starts, whole = [int(f) for f in first], []
         if rotations is not None and mirrored is not None:
             whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["EVENT_GAP", "event_bounds"]
+__all__ = ["EVENT_GAP", "event_bounds", "pair_events"]
 
 #: break frames at most this many frames apart are one break event
 EVENT_GAP = 3
@@ -25,3 +25,21 @@ def event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     event[cut] = 1
     event = np.cumsum(event)
     return frames[np.concatenate([[0], cut])], frames[np.concatenate([cut - 1, [len(frames) - 1]])], event
+
+
+def pair_events(breaks: np.ndarray, j: int, p: int, held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The break events a left/right pair ``j``, ``p`` shares, as a label exchange makes them: ``(first, last)``
+    (n,) int, the events (:func:`event_bounds`) of the frames where ``p`` breaks within a frame of a break of ``j``
+    (``breaks`` (F, J) bool), less those holding a ``held`` frame ((F, J) bool; None: none) on both joints (a swap
+    with one break, paired with no other). Empty where fewer than two such frames are."""
+    from scipy import ndimage
+
+    frames = np.flatnonzero(ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool)) & breaks[:, p])
+    if len(frames) < 2:
+        return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    first, last, _ = event_bounds(frames)
+    if held is not None:
+        free = np.array([not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)],
+                        dtype=bool)
+        first, last = first[free], last[free]
+    return first, last

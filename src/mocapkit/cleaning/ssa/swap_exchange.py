@@ -45,6 +45,7 @@ import numpy as np
 
 from ... import rotations as R
 from ..runs import true_runs
+from .events import pair_events
 
 __all__ = ["EXTENT_S", "PartnerSwap", "clean_stretches", "exchanged_cells", "joined_swaps", "pair_exchange", "parent_orientations",
            "partner_swaps", "root_depths", "swap_exchanges", "SWAP_JOIN_RATIO", "end_join", "join_steps"]
@@ -226,10 +227,6 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     frames of swaps with one break (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`, None: none), whose events
     are paired with no other.
     """
-    from scipy import ndimage
-
-    from .events import event_bounds
-
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
     out = np.zeros((F, J), dtype=bool)
@@ -251,14 +248,9 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
         p = int(partner[j])
         if p <= j or not (use[j] and use[p]):
             continue
-        frames = np.flatnonzero(ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool))
-                                & breaks[:, p])
-        if len(frames) < 2:
+        first, last = pair_events(breaks, j, p, held)
+        if not len(first):
             continue
-        first, last, _ = event_bounds(frames)
-        if held is not None:
-            free = [not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)]
-            first, last = first[free], last[free]
         # the steps a -> a + 1 of each event (its break frames are a and a + 1)
         steps = sorted({a for f, l in zip(first, last) for a in range(max(int(f) - 1, 0), min(int(l), F - 2) + 1)})
         taken = found[:, j] | found[:, p]
