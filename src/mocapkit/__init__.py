@@ -29,7 +29,7 @@ from .errors import MissingFileError, MocapError, MocapFormatError, SkeletonErro
 from .io import load, save  # noqa: E402
 from .motion import Motion, Skeleton, concatenate  # noqa: E402
 
-__version__ = "0.22.0"
+__version__ = "0.23.0"
 
 __all__ = [
     "Motion",
