@@ -4,6 +4,7 @@ names are right are never named."""
 
 from __future__ import annotations
 
+import json
 import re
 from pathlib import Path
 
@@ -123,3 +124,26 @@ def test_info_and_clean_name_it_in_one_line_and_change_nothing(cmu_exchanged, tm
     assert out.read_bytes() == cmu_exchanged.read_bytes()  # named, nothing changed
     record = CleanResult.load(out.with_name("out.clean.npz"))
     assert [n for n in record.notes if n.startswith("left and right exchanged")] == [said[0].strip()[len("note: "):]]
+
+
+def test_clean_batch_names_it_in_the_take_line_short(cmu_exchanged, tmp_path):
+    """`clean-batch`'s one line per take says it as its JSON row and the record do (the long note), shortly; the
+    take whose names are right gets no such words."""
+    src = tmp_path / "in"
+    src.mkdir()
+    cmu_exchanged.rename(src / "exchanged.bvh")
+    (src / "right.bvh").write_bytes(CMU.read_bytes())
+    rc, text, err = helpers.run("clean-batch", src, tmp_path / "out", "--executor", "serial", "--steps", "fill")
+    assert rc == 0, err
+    lines = {name: [ln for ln in text.splitlines() if ln.startswith("cleaned ") and f"{name}.bvh ->" in ln]
+             for name in ("exchanged", "right")}
+    assert len(lines["exchanged"]) == 1 and len(lines["right"]) == 1
+    assert "left and right exchanged: LeftUpLeg and LeftArm on the body's right (names kept)" in lines["exchanged"][0]
+    assert "exchanged" not in lines["right"][0].split("->", 1)[1]
+    record = CleanResult.load(tmp_path / "out" / "exchanged.clean.npz")
+    assert any(n.startswith("left and right exchanged: LeftUpLeg and LeftArm (named left)") for n in record.notes)
+    rc, text, err = helpers.run("clean-batch", src, tmp_path / "out2", "--executor", "serial", "--steps", "fill",
+                                "--json")
+    assert rc == 0, err
+    rows = {Path(r["input"]).stem: r for r in json.loads(text)["rows"]}
+    assert any(n.startswith("left and right exchanged: LeftUpLeg") for n in rows["exchanged"]["notes"])

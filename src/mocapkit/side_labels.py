@@ -62,13 +62,15 @@ import numpy as np
 
 from .joints import joint_sides, standard_joints
 
-__all__ = ["EXCHANGED_BELOW", "ExchangedSides", "exchanged_sides", "side_agreement"]
+__all__ = ["EXCHANGED_BELOW", "NOTE_START", "ExchangedSides", "exchanged_phrase", "exchanged_sides", "side_agreement"]
 
 #: A pair's agreement (module docstring) below this: its left-named joint lies on the body's right.
 EXCHANGED_BELOW = -0.5
 #: The legs' hinges must give at least this mean ``|l|`` (a sum of sines; a standing body with feet gives
 #: about 2) for the take, or the rest pose, to tell left from right.
 BEND_MIN = 0.2
+#: How :class:`ExchangedSides`' note begins: a cleaning's notes (its record, a batch's row) are found by it.
+NOTE_START = "left and right exchanged: "
 _PAIRS = {"legs": "hip", "arms": "shoulder"}
 _LEG_ROLES = ("hip", "knee", "foot")
 
@@ -92,10 +94,24 @@ class ExchangedSides:
                 else "the rest pose cannot tell")
         said = ", ".join(f"{p} {a:+.2f}" for p, a in zip(self.pairs, self.agreement))
         joints = " and ".join(self.named_left)
-        return (f"left and right exchanged: {joints} (named left) {'lie' if len(self.named_left) > 1 else 'lies'} "
+        return (f"{NOTE_START}{joints} (named left) {'lie' if len(self.named_left) > 1 else 'lies'} "
                 f"on the body's right over the whole take (agreement {said}, of -1 to 1; {rest}), by the knees' "
                 "and ankles' bend in right-handed axes: a rig mapped left for right; the names are kept, nothing "
                 "changed")
+
+
+def exchanged_phrase(notes) -> str:
+    """The short form of the exchanged-sides note among a cleaning's ``notes`` (str sequence), "" where none is.
+
+    ``"left and right exchanged: LeftUpLeg and LeftArm on the body's right (names kept)"``: the joints the long
+    note (``str(ExchangedSides)``, which the record and a batch's JSON row keep whole) names, for a line that
+    says one take in one line (``mocapkit clean-batch``).
+    """
+    for note in notes or ():
+        if isinstance(note, str) and note.startswith(NOTE_START) and " (named left) " in note:
+            joints = note[len(NOTE_START):note.index(" (named left) ")]
+            return f"{NOTE_START}{joints} on the body's right (names kept)"
+    return ""
 
 
 def side_agreement(positions: np.ndarray, joints: dict[str, int]) -> tuple[dict[str, float], float]:

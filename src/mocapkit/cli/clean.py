@@ -331,6 +331,7 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     a take done starts with ("reviewed" in review mode, --steps detect, where nothing is changed)."""
     from ..cleaning.markers.counts import unvalidated_words
     from ..cleaning.take_breaks import cuts_phrase
+    from ..side_labels import exchanged_phrase
 
     if row["status"] == "failed":
         reason, name = str(row["reason"]), str(row["input"])
@@ -355,6 +356,8 @@ def _take_line(row: dict, done: str = "cleaned") -> str:
     what = "; ".join([what] + [row[k] for k in ("left", "judged") if row.get(k)])
     cuts = cuts_phrase(row.get("cuts") or ())  # named for a person to decide: no sample changed for them
     what += f"; {cuts}" if cuts else ""
+    sides = exchanged_phrase(row.get("notes"))  # a rig mapped left for right: the record and the JSON say it whole
+    what += f"; {sides}" if sides else ""
     # "cleaned again: its input changed ...", or a take found written after an interrupt (no time measured)
     seconds = row.get("seconds", 0.0)
     said = [f"{seconds:.1f} s" if seconds is not None else "", row.get("reason") or ""]
