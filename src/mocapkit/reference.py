@@ -29,7 +29,7 @@ from .errors import MocapFormatError
 from .words import plural
 
 __all__ = ["check_reference", "clean_errors", "joint_angle_errors", "filled_error_deg", "global_errors_cm", "position_error_cm",
-           "skeleton_error_cm"]
+           "skeleton_error_cm", "unplaced_errors_cm"]
 
 
 def check_reference(reference, path: os.PathLike | str, *, frames: int, joint_names: Sequence[str] | None = None,
@@ -148,3 +148,54 @@ def position_error_cm(reference, result, heading: bool = False) -> float:
     from .metrics import joint_position_rms
 
     return float(joint_position_rms(reference, result, root_relative="heading" if heading else True))
+
+
+def unplaced_errors_cm(reference, result) -> dict:
+    """The joints a heading-free figure (:func:`position_error_cm` with ``heading``) leaves out, for a result that
+    does not place the body (accelerometers, a multilinear model: Tautges 2012, chs. 2-3, see no heading and
+    integrate no floor position): the pelvis's height and the joints above the pelvis (a game rig's root,
+    ``joint_Root`` on the Bandai Namco rig).
+
+    Both are compared in each motion's ground frame (:func:`mocapkit.features.root_frame`: the pelvis's heading
+    about the vertical and its position on the floor, the vertical the reference's), where such a result can
+    be right: the pelvis's position there is its height above the floor; a joint above the pelvis is where it
+    lies from the body. Where the reference holds those joints still (the ``joint_Root`` of Bandai Namco
+    dataset 2 at the origin, :func:`mocapkit.reconstruct._common.held_above`) their global positions are
+    compared instead: a result written laid out as the take holds them there too
+    (:func:`mocapkit.reconstruct.output.laid_out_like`), and their place from the body is the body's travel,
+    which the pelvis's figure leaves to the body.
+
+    Returns ``{"pelvis_height_rms_cm": cm}``, with ``"above_pelvis_rms_cm"`` (RMS over those joints and frames,
+    cm), ``"above_pelvis_is"`` (``"held still: global"`` or ``"in the pelvis's ground frame"``) and
+    ``"above_pelvis"`` (their names) where the rig has joints above its pelvis. NaN frames are left out.
+    """
+    from . import rotations as R
+    from .features import find_up_axis, root_frame
+    from .motion import unit_scale_cm
+    from .reconstruct._common import body_joints, held_above
+    from .rigs import pelvis_index
+
+    sk = reference.skeleton
+    scale = unit_scale_cm(sk)
+    ga, gb = reference.global_positions(), result.global_positions()
+    up = find_up_axis(sk, ga)
+
+    def ground(m, g):  # positions (F, J, 3) in the pelvis's ground frame
+        heading, floor = root_frame(m, up)
+        return R.quaternion_rotate(R.quaternion_conjugate(heading)[:, None], g - floor[:, None])
+
+    def rms(d) -> float:
+        d2 = np.sum(d * d, axis=-1)
+        d2 = d2[np.isfinite(d2)]
+        return float(np.sqrt(d2.mean()) * scale) if d2.size else float("nan")
+
+    la, lb = ground(reference, ga), ground(result, gb)
+    p = pelvis_index(sk)
+    out = {"pelvis_height_rms_cm": rms(la[:, p] - lb[:, p])}
+    above = np.setdiff1d(np.arange(sk.num_joints), body_joints(sk))
+    if above.size:
+        still = held_above(reference) is not None
+        d = (ga - gb)[:, above] if still else (la - lb)[:, above]
+        out.update(above_pelvis_rms_cm=rms(d), above_pelvis_is="held still: global" if still else
+                   "in the pelvis's ground frame", above_pelvis=[sk.joint_names[j] for j in above])
+    return out

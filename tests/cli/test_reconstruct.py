@@ -151,12 +151,43 @@ def test_a_bandai_reconstruction_keeps_joint_root_where_the_take_holds_it(tmp_pa
     assert code == 0, err
     rep, rec, take = json.loads(stdout), mocapkit.load(out), mocapkit.load(BANDAI)
     off = _hips_channels_off(rec, take)
+    assert rep["compared"] == list(take.skeleton.joint_names)  # every joint the reference has, said
     if mode == "--accelerometers":  # the height only: the pelvis's ground position is integrated, its heading free
         assert off[1] < 10.0
-        assert "skeleton_position_rms_cm" not in rep and rep["not_compared"].startswith("joint_Root and the joints above")
+        assert "skeleton_position_rms_cm" not in rep and "not_compared" not in rep
+        # joint_Root compared where the take holds it (the origin), the pelvis by its height
+        assert rep["above_pelvis"] == ["joint_Root"] and rep["above_pelvis_is"] == "held still: global"
+        assert rep["above_pelvis_rms_cm"] < 1e-3 and rep["pelvis_height_rms_cm"] < 10.0
     else:
         worst = np.linalg.norm(rec.global_positions() - take.global_positions(), axis=-1).max()
         assert off.max() < 5.0 and worst < 10.0 and rep["skeleton_position_rms_cm"] < 2.0  # cm
+
+
+def test_accelerometers_compare_joint_root_with_the_reference_and_say_every_joint_compared(tmp_path, bandai_db):
+    """joint_Root, above the pelvis, was left out of the accelerometer figures ("not compared"): now it is compared
+    where such a result can be right, globally where the reference holds it still (a reference whose joint_Root
+    lies 50 cm away shows 50 cm), in the pelvis's ground frame where it moves with the body (dataset 1's dash),
+    and the line ends naming every joint as compared."""
+    import json
+
+    take = mocapkit.load(BANDAI)
+    moved = tmp_path / "moved.npz"  # joint_Root, and with it the body, 50 cm along x: the body's figures stay
+    mocapkit.save(mocapkit.Motion(take.skeleton, take.rotations, take.root_positions + [50.0, 0.0, 0.0], take.fps,
+                                  take.name, take.translations), moved)
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--accelerometers", str(BANDAI), "-o", str(out),
+                            "--reference", str(moved))
+    assert code == 0, err
+    line = " ".join(stdout.split())
+    assert re.search(r"pelvis height [0-9.]+ cm, joint_Root 50\.00 cm \(where the reference holds it still\)", line)
+    assert "compared: all 22 joints of moved.npz" in line and "not compared" not in line
+    dash = Path(__file__).resolve().parents[1] / "data" / "dataset-1_dash_normal_001.bvh"
+    code, stdout, err = run("reconstruct", "--db", str(bandai_db), "--accelerometers", str(dash), "-o",
+                            str(tmp_path / "dash.bvh"), "--reference", str(dash), "--json")
+    assert code == 0, err
+    rep = json.loads(stdout)
+    assert rep["above_pelvis_is"] == "in the pelvis's ground frame" and rep["above_pelvis_rms_cm"] < 0.01
+    assert len(rep["compared"]) == 22
 
 
 def test_accelerometers_on_a_take_that_moves_its_root_give_its_root_motion_back(tmp_path, bandai_db):

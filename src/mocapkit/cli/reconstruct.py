@@ -131,6 +131,26 @@ def _nan_database_line(db, db_dir: Path) -> str:
             "`mocapkit db build` (`mocapkit fill` a take with gaps first); nothing written")
 
 
+def _reference_report(ref, result, reference: Path) -> tuple[str, dict]:
+    """The ``--reference`` figures of a result that does not place the body (accelerometers):
+    root and heading removed, the pelvis's height and the joints above it (:func:`mocapkit.reference.unplaced_errors_cm`),
+    and every joint named as compared: the line's tail and the JSON's keys."""
+    from ..reference import position_error_cm, unplaced_errors_cm
+
+    err = position_error_cm(ref, result, heading=True)
+    how = "root and heading removed"
+    report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
+    errors = {"reference": str(reference), "joint_position_rms_cm": err, "joint_position_rms_is": how}
+    unplaced = unplaced_errors_cm(ref, result)
+    report += f"; pelvis height {unplaced['pelvis_height_rms_cm']:.2f} cm"
+    if "above_pelvis" in unplaced:
+        where = ("where the reference holds it still" if unplaced["above_pelvis_is"].startswith("held")
+                 else "in the pelvis's ground frame")
+        report += f", {' and '.join(unplaced['above_pelvis'])} {unplaced['above_pelvis_rms_cm']:.2f} cm ({where})"
+    errors.update(unplaced)
+    return report, errors
+
+
 def reconstruct(
     db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
     out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
@@ -280,20 +300,19 @@ def reconstruct(
     if ref is not None:
         check_reference(ref, reference, frames=result.num_frames, skeleton=result.skeleton,
                         whose=f"the reconstruction's ({db_dir.name}'s skeleton)", option="--unit")
-        # accelerometers see no heading: their error is measured with each motion's heading removed
+        # accelerometers see no heading: their error is measured with each motion's heading removed, the pelvis's
+        # height and the joints above it in the ground frame where a body not placed can be right
         heading = kind == "accelerometers"
-        err = position_error_cm(ref, result, heading=heading)
         from ..rigs import pelvis_index
 
         above = pelvis_index(result.skeleton) != 0  # a root above the pelvis (joint_Root): compared where placed
-        how = "root and heading removed" if heading else "root-relative"
-        report = f"; joint-position RMS against {reference.name} ({how}): {err:.2f} cm"
-        errors = {"reference": str(reference), "joint_position_rms_cm": err, "joint_position_rms_is": how}
-        if heading and above:
-            unplaced = f"{result.skeleton.joint_names[0]} and the joints above the pelvis: accelerometers do not place the body"
-            report += f"; not compared: {unplaced}"
-            errors.update(not_compared=unplaced)
-        if not heading:  # markers place the body in their frame: where it lies is part of the error
+        if heading:
+            report, errors = _reference_report(ref, result, reference)
+        else:
+            err = position_error_cm(ref, result)
+            report = f"; joint-position RMS against {reference.name} (root-relative): {err:.2f} cm"
+            errors = {"reference": str(reference), "joint_position_rms_cm": err, "joint_position_rms_is": "root-relative"}
+            # markers place the body in their frame: where it lies is part of the error
             pelvis_cm, body_cm = global_errors_cm(ref, result)
             report += f"; in the markers' frame: pelvis {pelvis_cm:.2f} cm, body {body_cm:.2f} cm"
             errors.update(pelvis_position_rms_cm=pelvis_cm, body_position_rms_cm=body_cm)
@@ -301,6 +320,9 @@ def reconstruct(
                 whole_cm = skeleton_error_cm(ref, result)
                 report += f", whole skeleton (with {result.skeleton.joint_names[0]}) {whole_cm:.2f} cm"
                 errors.update(skeleton_position_rms_cm=whole_cm)
+        compared = list(result.skeleton.joint_names)  # each in one of the figures above
+        report += f"; compared: all {len(compared)} joints of {reference.name}"
+        errors.update(compared=compared)
     from ..reconstruct.control import upsampled_note
 
     coarse = upsampled_note(fps, db.fps, "the accelerometer readings" if kind == "accelerometers" else "the markers")
