@@ -61,6 +61,7 @@ __all__ = [
     "Description",
     "check_database_output",
     "skeleton_to_json",
+    "skeleton_from_json",
     "description_json",
     "content_digest",
     "staging_folder",
@@ -213,7 +214,7 @@ def _check_keys(d, keys: Sequence[str], optional: Sequence[str], where: str, pat
         raise MocapFormatError(path, f"{where}: unknown field(s) {', '.join(map(repr, unknown))}")
 
 
-def _skeleton_from_json(d, where: str, path: Path) -> Skeleton:
+def skeleton_from_json(d, where: str, path: Path) -> Skeleton:
     """A skeleton from its JSON object, every field's type checked first (one line on failure)."""
     _check_keys(d, _SKELETON_KEYS, (), where, path)
     checks = {
@@ -311,7 +312,7 @@ def _check_description(desc: dict, path: Path) -> Description:
     features = _check_features(desc["features"], path)
     if not isinstance(desc["skeletons"], list) or not desc["skeletons"]:
         raise MocapFormatError(path, "skeletons: expected a non-empty list")
-    skeletons = tuple(_skeleton_from_json(s, f"skeleton {k}", path) for k, s in enumerate(desc["skeletons"]))
+    skeletons = tuple(skeleton_from_json(s, f"skeleton {k}", path) for k, s in enumerate(desc["skeletons"]))
     for k, sk in enumerate(skeletons[1:], 1):
         if sk.joint_names != skeletons[0].joint_names or not np.array_equal(sk.parents, skeletons[0].parents):
             raise MocapFormatError(path, f"skeleton {k}: other joints or parents than skeleton 0 (a database has one topology)")

@@ -2,8 +2,8 @@
 
 One module per command group: :mod:`.motion` (info, convert, corrupt, plot),
 :mod:`.db` (db build, db info, search), :mod:`.ssa` (detect, repair),
-:mod:`.deep` (denoise, fill, train), :mod:`.reconstruct` and :mod:`.clean`
-(clean, clean-batch); :mod:`.common` holds what they share.
+:mod:`.deep` (denoise, fill, train), :mod:`.reconstruct`, :mod:`.multilinear` (multilinear build)
+and :mod:`.clean` (clean, clean-batch); :mod:`.common` holds what they share.
 
 What every command guarantees:
 
@@ -32,7 +32,7 @@ import typer
 
 from ..errors import TEMP_NAME, MocapError, os_error_line
 from . import clean as clean_cmds
-from . import db, deep, motion, reconstruct, ssa
+from . import db, deep, motion, multilinear, reconstruct, ssa
 from .common import FlagsCommand, FlagsGroup
 
 __all__ = ["app", "command", "main", "version"]
@@ -83,6 +83,7 @@ for _fn in (motion.info, motion.convert, motion.corrupt, motion.plot, db.search,
     app.command(cls=FlagsCommand)(_fn)
 app.command("clean-batch", cls=FlagsCommand)(clean_cmds.clean_batch)
 app.add_typer(db.db_app, name="db")
+app.add_typer(multilinear.multilinear_app, name="multilinear")
 
 def _fail(message: str, code: int = EXIT_BAD_INPUT) -> int:
     text = " ".join(str(message).split())  # one line, whatever the message held

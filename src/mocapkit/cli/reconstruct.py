@@ -132,7 +132,7 @@ def _nan_database_line(db, db_dir: Path) -> str:
 
 
 def _reference_report(ref, result, reference: Path) -> tuple[str, dict]:
-    """The ``--reference`` figures of a result that does not place the body (accelerometers):
+    """The ``--reference`` figures of a result that does not place the body (accelerometers, a multilinear model):
     root and heading removed, the pelvis's height and the joints above it (:func:`mocapkit.reference.unplaced_errors_cm`),
     and every joint named as compared: the line's tail and the JSON's keys."""
     from ..reference import position_error_cm, unplaced_errors_cm
@@ -151,8 +151,96 @@ def _reference_report(ref, result, reference: Path) -> tuple[str, dict]:
     return report, errors
 
 
+def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, skeleton: Optional[Path],
+                             reference: Optional[Path], as_json: bool, asf: Optional[Path], amc_fps: Optional[float],
+                             unit: Optional[str], overwrite: bool, unused: list[str]) -> None:
+    """``reconstruct --multilinear MODEL --accelerometers TAKE``: the model's mode weights and time map fitted to the
+    four default sensors simulated on TAKE, their global gravity-free accelerations (Tautges 2012, secs. 2.3-2.4:
+    the sensors' orientations turn the readings into the world frame), the fitted motion written to OUT."""
+    from .. import io
+    from ..features import default_sensors
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
+    from ..motion import Motion
+    from ..reconstruct.multilinear import simulated_readings
+    from ..reconstruct.multilinear_file import load_model
+    from ..reconstruct.output import laid_out_like
+    from ..reference import check_reference
+
+    if kind != "accelerometers":
+        raise MocapError(f"--multilinear fits accelerations: give the take as --accelerometers, not --{kind} "
+                         "(Tautges 2012, ch. 2)")
+    if unused:
+        raise MocapError(f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply to --multilinear")
+    guard([out], [inp, model_path, skeleton, reference, asf], overwrite)
+    check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
+    io.suffix_kind(out, io.WRITERS, "writing")
+    if inp.suffix.lower() == ".csv":
+        raise MocapFormatError(inp, "a readings CSV holds each sensor's own frame, and a multilinear model is fitted "
+                                    "to global accelerations, which need the sensors' orientations (Tautges 2012, "
+                                    "sec. 2.3.1): give a motion to simulate the sensors on")
+    if not inp.is_file():
+        raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
+    model, desc = load_model(model_path, progress=not as_json)
+    source = load_motion(inp, asf, purpose="--multilinear", fps=amc_fps, unit=unit, unit_option="--unit")
+    if not source.skeleton.is_compatible(model.skeleton_):
+        raise MocapFormatError(inp, f"its joints differ from the model's ({model_path.name}: "
+                                    f"{model.skeleton_.num_joints} joints); a model fits takes of its own rig")
+    performer = source.skeleton
+    if skeleton is not None:
+        from ..io.asfamc import read_asf
+
+        sk = read_asf(skeleton) if skeleton.suffix.lower() == ".asf" else io.load(skeleton)
+        sk = sk.skeleton if isinstance(sk, Motion) else sk
+        if not hasattr(sk, "joint_names") or not sk.is_compatible(model.skeleton_):
+            raise MocapFormatError(skeleton, "not a skeleton with the model's joints")
+        performer = sk
+    asf_file = _asf_for_amc(out, skeleton, performer, source, inp, asf, overwrite)
+    if source.num_frames < 5:
+        raise MocapFormatError(inp, f"{plural(source.num_frames, 'frame')}: a fit needs at least 5")
+    sensors, local, orient = simulated_readings(source)  # the IMUs' readings and orientations (sec. 2.3.1)
+    ref = None
+    if reference is not None:  # checked before the (long) fit
+        ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit,
+                                          unit_option="--unit"), reference, frames=source.num_frames,
+                              skeleton=model.skeleton_, whose=f"the model's ({model_path.name})", option="--unit")
+    try:
+        weights, result, info = model.fit_readings(local, source.fps, sensors=default_sensors(performer, up_axis=model.up_),
+                                                   orientations=orient, skeleton=performer, return_info=True)
+    except ValueError as exc:
+        raise MocapError(f"{inp}: {exc}") from None
+    result = laid_out_like(result, source, follow=False)  # the joints above the pelvis as the take has them
+    report, errors = "", {}
+    if ref is not None:
+        report, errors = _reference_report(ref, result, reference)
+        compared = list(result.skeleton.joint_names)
+        report += f"; compared: all {len(compared)} joints of {reference.name}"
+        errors.update(compared=compared)
+    licence = desc.get("licence")
+    notes = []
+    if licence:
+        notes.append(f"the poses come from {model_path}, built from takes under {licence}: so is {out.name}")
+    _write(result, out, asf_file, overwrite, "multilinear", licence)
+    grid = " x ".join(f"{m} ({len(e)})" for m, e in zip(desc["modes"], desc["entries"]))
+    fit = (f"multilinear model {model_path.name} ({desc.get('class') or 'one class'}, {grid}); acceleration "
+           f"distance {info['relative_distance']:.3f} of the readings' (the class mean {info['mean_distance']:.3f})")
+    if as_json:
+        import json
+
+        print(json.dumps({"out": str(out), "frames": result.num_frames, "fps": result.fps, "method": "multilinear",
+                          "from": plural(len(sensors), "accelerometer"), "model": str(model_path),
+                          "weights": {m: [round(float(x), 6) for x in w] for m, w in zip(model.modes_, weights)},
+                          "relative_distance": info["relative_distance"], "mean_distance": info["mean_distance"],
+                          **errors, "notes": notes}))
+        return
+    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from "
+                  f"{plural(len(sensors), 'accelerometer')}, {fit}{report}")
+    for note in notes:
+        console.print(f"note: {note}")
+
+
 def reconstruct(
-    db_dir: Path = typer.Option(..., "--db", help="The knowledge base: a database folder (`mocapkit db build`)."),
+    db_dir: Optional[Path] = typer.Option(None, "--db", help="The knowledge base: a database folder (`mocapkit db build`); or give --multilinear."),
+    multilinear: Optional[Path] = typer.Option(None, "--multilinear", help="Instead of --db: a multilinear model of the take's motion class (`mocapkit multilinear build`), fitted to --accelerometers (Tautges ch. 2)."),
     out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
     markers: Optional[Path] = typer.Option(
         None, "--markers", help="A few marker trajectories (.c3d, .trc, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
@@ -196,6 +284,14 @@ def reconstruct(
     if len(given) != 1:
         raise MocapError("give exactly one of --markers, --accelerometers or --ssg")
     kind, inp = given[0]
+    if (db_dir is None) == (multilinear is None):
+        raise MocapError("give exactly one knowledge base: --db DB_DIR (a database) or --multilinear MODEL (a model)")
+    if multilinear is not None:
+        return _reconstruct_multilinear(
+            multilinear, kind, inp, out, skeleton, reference, as_json, asf, amc_fps, unit, overwrite,
+            unused=[o for o, v in (("--use", use), ("--up-axis", up_axis), ("--synthesis", synthesis),
+                                   ("--neighbours", neighbours), ("--smoothing", smoothing),
+                                   ("--knowledge", knowledge)) if v is not None])
     given_acc = [(o, k, v) for o, k, v in (("--synthesis", "synthesis", synthesis), ("--neighbours", "k", neighbours),
                                            ("--smoothing", "smoothing", smoothing)) if v is not None]
     acc_params = {k: v for _, k, v in given_acc}

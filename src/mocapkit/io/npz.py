@@ -344,6 +344,8 @@ def read_npz(path):
         if version != FORMAT_VERSION:
             raise MocapFormatError(path, f"not a mocapkit npz (format_version {version}, expected {FORMAT_VERSION})")
         kind = _scalar(path, data, "kind", "s")
+        if kind not in ("motion", "markers"):  # a multilinear model (reconstruct --multilinear) is read there
+            raise MocapFormatError(path, f"an npz of kind {kind!r}, not a motion or markers")
         try:
             fps = check_fps(_scalar(path, data, "fps", "f"))
         except SkeletonError as exc:
@@ -393,8 +395,6 @@ def read_npz(path):
                                     modelled={} if kinds is None else {str(label): str(k) for label, k in
                                                                        zip(labels, kinds) if k}),
             )
-        if kind != "motion":
-            raise MocapFormatError(path, f"unknown npz kind {kind!r}")
         channels = _json(path, data, "channels")
         limits = _json(path, data, "limits")
         unit_cm = _scalar(path, data, "unit_cm", "f")

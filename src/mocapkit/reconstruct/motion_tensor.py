@@ -41,7 +41,8 @@ from ..search.dtw import dtw
 from ..words import plural
 from ._common import body_motion, body_skeleton, held_above, whole_motion
 
-__all__ = ["MotionTensor", "hdm05_labels", "held_by_all", "motion_tensor", "time_map", "FIRST_NATURAL_Q", "FIRST_NATURAL_P"]
+__all__ = ["MotionTensor", "hdm05_labels", "held_by_all", "motion_tensor", "name_labels", "time_map", "FIRST_NATURAL_Q",
+           "FIRST_NATURAL_P"]
 
 #: Index of the first natural mode in the rotation tensor (DOF, joint, frame, natural...).
 FIRST_NATURAL_Q = 3
@@ -157,6 +158,44 @@ def hdm05_labels(clips: Sequence) -> list[tuple[str, int]]:
         takes = sorted(t for a, t in parsed if a == actor)
         out.append((actor, takes.index(take)))
     return out
+
+
+def name_labels(names: Sequence) -> tuple[tuple[str, ...], list[tuple], str]:
+    """The natural modes, each clip's labels and the one motion class, read from the clips' file names.
+
+    ``names``: paths, names or Motions (their ``name``), one per clip. Two datasets name their takes by
+    class and natural mode:
+
+    * HDM05, ``HDM_<actor>_<class>_<take>_<fps>``: modes ``("actor", "repetition")``, the repetition the
+      take's rank among its actor's (:func:`hdm05_labels`);
+    * Bandai Namco, ``dataset-<n>_<content>_<style>_<take>``: mode ``("style",)``, or ``("style",
+      "repetition")`` where a style has more than one take (the take's rank among its style's).
+
+    Returns ``(modes, labels, class)``. Raises ValueError naming the first clip whose name is of neither
+    kind, or the classes when the clips are of more than one: a multilinear model is of one motion class
+    (Tautges 2012, sec. 2.6).
+    """
+    stems = [Path(str(getattr(n, "name", n))).name.split(".")[0] for n in names]
+    parts = [s.split("_") for s in stems]
+    if stems and all(len(p) >= 5 and p[0] == "HDM" and p[-2].isdigit() for p in parts):
+        classes = ["_".join(p[2:-2]) for p in parts]
+        modes, labels = ("actor", "repetition"), hdm05_labels(stems)
+    elif stems and all(len(p) == 4 and p[0].startswith("dataset-") and p[3].isdigit() for p in parts):
+        classes = [p[1] for p in parts]  # dataset 1 and 2 share the rig: a run is a run
+        styles = [p[2] for p in parts]
+        ranks = [sorted(int(q[3]) for q in parts if q[2] == p[2]).index(int(p[3])) for p in parts]
+        several = len(set(styles)) < len(styles)
+        modes = ("style", "repetition") if several else ("style",)
+        labels = [(s, r) if several else (s,) for s, r in zip(styles, ranks)]
+    else:
+        bad = next((s for s, p in zip(stems, parts) if not ((len(p) >= 5 and p[0] == "HDM" and p[-2].isdigit())
+                                                             or (len(p) == 4 and p[0].startswith("dataset-")))), stems[0] if stems else "")
+        raise ValueError(f"{bad!r} is named neither as an HDM05 take (HDM_<actor>_<class>_<take>_<fps>) nor as a "
+                         "Bandai Namco one (dataset-<n>_<content>_<style>_<take>): the natural modes are read from the names")
+    found = sorted(set(classes))
+    if len(found) > 1:
+        raise ValueError(f"takes of {len(found)} motion classes ({', '.join(found)}): a multilinear model is of one class")
+    return modes, labels, found[0]
 
 
 def _sample(rotations: np.ndarray, root: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -68,7 +68,8 @@ from scipy.optimize import minimize
 from tqdm.auto import tqdm
 
 from .. import rotations as R
-from ..features import Sensor, default_sensors, five_point_derivative, parse_up_axis, virtual_markers
+from ..features import (Sensor, default_sensors, five_point_derivative, parse_up_axis, virtual_accelerometers,
+                        virtual_markers)
 from ..motion import Motion, Skeleton, unit_scale_cm
 from ..progress import bar_disabled, bar_size
 from ..search.dtw import dtw
@@ -87,6 +88,7 @@ __all__ = [
     "reconstruct_tensor",
     "acceleration_distance",
     "MultilinearModel",
+    "simulated_readings",
 ]
 
 # -- the rotation-invariant acceleration distance (eq. 2.10) -------------------------------
@@ -591,6 +593,27 @@ class MultilinearModel:
             "time_map": u_full,
         }
         return w, motion, info
+
+
+def simulated_readings(motion: Motion, sensors: Sequence[Sensor] | None = None) -> tuple[list, np.ndarray, np.ndarray]:
+    """Accelerometers simulated on ``motion`` with their orientations: what :meth:`MultilinearModel.fit_readings`
+    takes from a recording with ``orientations`` (sec. 2.3.1: the IMU gives each sensor's orientation, which turns
+    its readings into the world frame).
+
+    ``sensors``: :func:`~mocapkit.features.default_sensors` (forearms and shins, near wrists and ankles) when
+    None, placed with the vertical of the motion's frames (:func:`~mocapkit.features.find_up_axis`: the Bandai
+    Namco rest pose lies along x). Returns ``(sensors, readings (F, S, 3) m/s^2 in each sensor's frame, gravity
+    included (:func:`~mocapkit.features.virtual_accelerometers`), orientations (F, S, 4) global, w first)``.
+    """
+    from ..features import find_up_axis
+
+    up = find_up_axis(motion.skeleton, motion.global_positions())
+    sensors = list(default_sensors(motion.skeleton, up_axis=up) if sensors is None else sensors)
+    readings = virtual_accelerometers(motion, sensors, up_axis=up)
+    grot, _ = motion.global_transforms()
+    joints = [motion.skeleton.index(s.joint) for s in sensors]
+    orientations = R.quaternion_multiply(grot[:, joints], np.stack([s.rotation for s in sensors]))
+    return sensors, readings, orientations
 
 
 def _sensor_positions(motion: Motion, sensors: Sequence) -> np.ndarray:

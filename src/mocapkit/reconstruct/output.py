@@ -31,7 +31,7 @@ rotations: float64 (F, J, 4), local joint rotations, unit quaternions (w, x, y, 
 root_positions: float64 (F, 3), the root joint's position, in length_unit.
 offsets: float64 (J, 3), each joint's offset from its parent at rest, in length_unit.
 cm_per_unit: centimetres per length unit (NaN when it cannot be told).
-method: the control signal: markers, accelerometers or ssg (gappy markers).{licence}"""
+method: the control signal: markers, accelerometers or ssg (gappy markers); multilinear: accelerometers fitted by a multilinear model.{licence}"""
 
 
 def _unit(motion) -> tuple[float, str]:
@@ -127,7 +127,7 @@ def save_reconstruction(motion, path, method: str, *, asf=None, licence: str | N
     """Write a reconstruction to ``path`` (.bvh, .amc, .npz) atomically: an npz says what it holds
     (:func:`described_arrays`, with ``licence``: the terms of the database's takes, ``db.info.get("licence")``),
     the other formats are written as :func:`mocapkit.io.save` writes them.
-    ``method``: "markers", "accelerometers" or "ssg"; ``asf``: an AMC's skeleton file."""
+    ``method``: "markers", "accelerometers", "ssg" or "multilinear"; ``asf``: an AMC's skeleton file."""
     from .. import io
 
     path = Path(path)
