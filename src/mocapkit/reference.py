@@ -159,11 +159,11 @@ def unplaced_errors_cm(reference, result) -> dict:
     Both are compared in each motion's ground frame (:func:`mocapkit.features.root_frame`: the pelvis's heading
     about the vertical and its position on the floor, the vertical the reference's), where such a result can
     be right: the pelvis's position there is its height above the floor; a joint above the pelvis is where it
-    lies from the body. Where the reference holds those joints still (the ``joint_Root`` of Bandai Namco
-    dataset 2 at the origin, :func:`mocapkit.reconstruct._common.held_above`) their global positions are
-    compared instead: a result written laid out as the take holds them there too
-    (:func:`mocapkit.reconstruct.output.laid_out_like`), and their place from the body is the body's travel,
-    which the pelvis's figure leaves to the body.
+    lies from the body (a root that travels with it: root motion). Where the reference holds those joints
+    still (the ``joint_Root`` of Bandai Namco dataset 2 at the origin,
+    :func:`mocapkit.reconstruct._common.held_above`) their global positions are compared instead: a result
+    laid out as the take holds them there too (:func:`mocapkit.reconstruct.output.laid_out_like`), while
+    their place from the body is the body's integrated travel, not theirs.
 
     Returns ``{"pelvis_height_rms_cm": cm}``, with ``"above_pelvis_rms_cm"`` (RMS over those joints and frames,
     cm), ``"above_pelvis_is"`` (``"held still: global"`` or ``"in the pelvis's ground frame"``) and

@@ -164,10 +164,9 @@ def test_a_bandai_reconstruction_keeps_joint_root_where_the_take_holds_it(tmp_pa
 
 
 def test_accelerometers_compare_joint_root_with_the_reference_and_say_every_joint_compared(tmp_path, bandai_db):
-    """joint_Root, above the pelvis, was left out of the accelerometer figures ("not compared"): now it is compared
-    where such a result can be right, globally where the reference holds it still (a reference whose joint_Root
-    lies 50 cm away shows 50 cm), in the pelvis's ground frame where it moves with the body (dataset 1's dash),
-    and the line ends naming every joint as compared."""
+    """joint_Root, above the pelvis, is compared under accelerometers where such a result can be right: globally
+    where the reference holds it still (a reference whose joint_Root lies 50 cm away shows 50 cm), in the pelvis's
+    ground frame where it moves with the body (dataset 1's dash); the line ends naming every joint as compared."""
     import json
 
     take = mocapkit.load(BANDAI)
