@@ -12,7 +12,8 @@ import pytest
 import mocapkit
 from mocapkit import metrics, samples
 from mocapkit.features import default_sensors
-from mocapkit.reconstruct.multilinear import MultilinearModel, simulated_readings
+from mocapkit.motion import unit_scale_cm
+from mocapkit.reconstruct.multilinear import MultilinearModel, marker_accelerations, simulated_readings
 from mocapkit.reconstruct.multilinear_file import FORMAT_VERSION, load_model, save_model
 from tests.cli.helpers import one_error_line, run
 
@@ -67,6 +68,39 @@ def test_reconstruct_with_a_model_fits_the_take_and_reports_every_joint(sneak_mo
     assert rep["relative_distance"] < rep["mean_distance"]
 
 
+def test_reconstruct_with_a_model_from_markers_fits_their_accelerations(sneak_model, tmp_path):
+    """--multilinear MODEL --markers TAKE: the six default markers (hands, feet, head, root) on the take's joints,
+    their second derivatives the global accelerations the model is fitted to; a marker file with --use the same
+    way, and without it refused in one line."""
+    from mocapkit.features import virtual_markers
+    from mocapkit.io import save_markers
+    from mocapkit.markerset import MarkerSet
+
+    take = mocapkit.load(SNEAK[1])
+    out = tmp_path / "rec.bvh"
+    code, stdout, err = run("reconstruct", "--multilinear", sneak_model, "--markers", SNEAK[1], "-o", out, "--json")
+    assert code == 0, err
+    rep = json.loads(stdout)
+    joints = ["lwrist", "rwrist", "lfoot", "rfoot", "head", "root"]
+    assert rep["from"] == f"6 markers ({', '.join(joints)})", rep["from"]
+    model, _ = load_model(sneak_model)
+    accel = marker_accelerations(virtual_markers(take, joints), take.fps, take.skeleton)
+    _, want = model.fit_readings(accel, take.fps, sensors=joints, skeleton=take.skeleton)
+    np.testing.assert_allclose(mocapkit.load(out).global_positions(), want.global_positions(), atol=1e-3)
+    markers = tmp_path / "m.npz"  # the same trajectories as a marker file, in its own labels
+    labels = ("LWR", "RWR", "LFT", "RFT", "HEAD", "ROOT")
+    cm = virtual_markers(take, joints) * unit_scale_cm(take.skeleton)
+    save_markers(MarkerSet(labels, cm, take.fps, "cm"), markers)
+    code, _, err = run("reconstruct", "--multilinear", sneak_model, "--markers", markers, "-o", tmp_path / "m.bvh")
+    assert code == 2 and one_error_line(err) and "needs --use" in err
+    use = ",".join(f"{a}={j}" for a, j in zip(labels, joints))
+    code, _, err = run("reconstruct", "--multilinear", sneak_model, "--markers", markers, "--use", use, "--up-axis",
+                       "y", "-o", tmp_path / "m.bvh")
+    assert code == 0, err
+    np.testing.assert_allclose(mocapkit.load(tmp_path / "m.bvh").global_positions(), want.global_positions(),
+                               atol=1e-3)
+
+
 def test_a_bandai_model_keeps_joint_root_where_the_take_holds_it(tmp_path):
     """Two runs on the game rig, named by dataset, content and style: one class (run), mode style; the result's
     joint_Root stays at the origin as the take's, and the line compares it and names all 22 joints."""
@@ -109,7 +143,8 @@ def test_a_file_that_is_no_model_or_of_another_version_is_refused_in_one_line(sn
 
 
 @pytest.mark.parametrize("args, said", [
-    (("--markers",), "--multilinear fits accelerations"),
+    (("--ssg",), "--multilinear fits accelerations: give the take as --accelerometers or --markers, not --ssg"),
+    (("--accelerometers", "--use", "head"), "--use does not apply to --multilinear --accelerometers"),
     (("--accelerometers", "--db", "DB"), "give exactly one knowledge base"),
     (("--accelerometers", "--neighbours", "8"), "--neighbours does not apply to --multilinear"),
 ])

@@ -153,24 +153,29 @@ def _reference_report(ref, result, reference: Path) -> tuple[str, dict]:
 
 def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, skeleton: Optional[Path],
                              reference: Optional[Path], as_json: bool, asf: Optional[Path], amc_fps: Optional[float],
-                             unit: Optional[str], overwrite: bool, unused: list[str]) -> None:
-    """``reconstruct --multilinear MODEL --accelerometers TAKE``: the model's mode weights and time map fitted to the
-    four default sensors simulated on TAKE, their global gravity-free accelerations (Tautges 2012, secs. 2.3-2.4:
-    the sensors' orientations turn the readings into the world frame), the fitted motion written to OUT."""
+                             unit: Optional[str], overwrite: bool, use: Optional[str], up_axis: Optional[str],
+                             unused: list[str]) -> None:
+    """``reconstruct --multilinear MODEL``: the model's mode weights and time map fitted to global gravity-free
+    accelerations (Tautges 2012, secs. 2.3-2.4), the fitted motion written to OUT. ``--accelerometers TAKE``: the
+    four default sensors simulated on TAKE, turned into the world frame by their orientations (sec. 2.3.1);
+    ``--markers FILE``: the markers' own accelerations at the joints they sit on (the fit sees no position)."""
     from .. import io
     from ..features import default_sensors
-    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion
+    from ..io.c3d import MarkerSet
+    from ..io.takes import CLI_AMC_NAMES, check_asf, load_motion, load_take
     from ..motion import Motion
-    from ..reconstruct.multilinear import simulated_readings
+    from ..reconstruct.multilinear import marker_accelerations, simulated_readings
     from ..reconstruct.multilinear_file import load_model
     from ..reconstruct.output import laid_out_like
     from ..reference import check_reference
 
-    if kind != "accelerometers":
-        raise MocapError(f"--multilinear fits accelerations: give the take as --accelerometers, not --{kind} "
+    if kind == "ssg":
+        raise MocapError("--multilinear fits accelerations: give the take as --accelerometers or --markers, not --ssg "
                          "(Tautges 2012, ch. 2)")
+    unused += [o for o, v in (("--use", use), ("--up-axis", up_axis)) if v is not None and kind == "accelerometers"]
     if unused:
-        raise MocapError(f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply to --multilinear")
+        raise MocapError(f"{', '.join(unused)} {'does' if len(unused) == 1 else 'do'} not apply to --multilinear"
+                         + (" --accelerometers" if kind == "accelerometers" else ""))
     guard([out], [inp, model_path, skeleton, reference, asf], overwrite)
     check_asf(asf, [inp, reference], amc_fps, names=CLI_AMC_NAMES)
     io.suffix_kind(out, io.WRITERS, "writing")
@@ -181,11 +186,13 @@ def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, 
     if not inp.is_file():
         raise (MocapFormatError(inp, "not a regular file") if inp.exists() else MissingFileError(inp))
     model, desc = load_model(model_path, progress=not as_json)
-    source = load_motion(inp, asf, purpose="--multilinear", fps=amc_fps, unit=unit, unit_option="--unit")
-    if not source.skeleton.is_compatible(model.skeleton_):
+    source = load_take(inp, asf, fps=amc_fps, unit=unit, unit_option="--unit")
+    if kind == "accelerometers" and not isinstance(source, Motion):
+        raise MocapFormatError(inp, "accelerometers are simulated on a motion, not on markers (give it as --markers)")
+    if isinstance(source, Motion) and not source.skeleton.is_compatible(model.skeleton_):
         raise MocapFormatError(inp, f"its joints differ from the model's ({model_path.name}: "
                                     f"{model.skeleton_.num_joints} joints); a model fits takes of its own rig")
-    performer = source.skeleton
+    performer = source.skeleton if isinstance(source, Motion) else model.skeleton_
     if skeleton is not None:
         from ..io.asfamc import read_asf
 
@@ -194,21 +201,46 @@ def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, 
         if not hasattr(sk, "joint_names") or not sk.is_compatible(model.skeleton_):
             raise MocapFormatError(skeleton, "not a skeleton with the model's joints")
         performer = sk
-    asf_file = _asf_for_amc(out, skeleton, performer, source, inp, asf, overwrite)
-    if source.num_frames < 5:
-        raise MocapFormatError(inp, f"{plural(source.num_frames, 'frame')}: a fit needs at least 5")
-    sensors, local, orient = simulated_readings(source)  # the IMUs' readings and orientations (sec. 2.3.1)
+    asf_file = _asf_for_amc(out, skeleton, performer if isinstance(source, Motion) else None, source, inp, asf,
+                            overwrite)
+    notes: list[str] = []
+    if kind == "accelerometers":
+        sensors, readings, orient = simulated_readings(source)  # the IMUs' readings and orientations (sec. 2.3.1)
+        fps, what = source.fps, plural(len(sensors), "accelerometer")
+        sensors = default_sensors(performer, up_axis=model.up_)  # the same four on the body the model animates
+    else:
+        from ..reconstruct.control import control_markers
+
+        if use is None and isinstance(source, MarkerSet):
+            raise MocapFormatError(inp, "a marker file needs --use LABEL=JOINT,... to say which joint each marker sits on")
+        spec = use if use is not None else _default_use(source.skeleton)
+        said: list[str] = []
+        try:
+            with warnings_as_notes(said):
+                pos, joints, fps = control_markers(source, spec, model.skeleton_, up_axis=up_axis, option="--up-axis")
+        except ValueError as exc:
+            raise MocapError(f"{inp}: {exc}") from None
+        pos, joints, unseen = _drop_unseen(pos, joints, spec)
+        if not joints:
+            raise MocapFormatError(inp, f"no marker named in --use is seen in any frame ({', '.join(unseen)})")
+        notes += said + ([f"{', '.join(unseen)} never seen in {inp.name}: left out"] if unseen else [])
+        readings, orient, sensors = marker_accelerations(pos, fps, model.skeleton_), None, joints
+        what = f"{plural(len(joints), 'marker')} ({', '.join(joints)})"
+    frames = readings.shape[0]
+    if frames < 5:
+        raise MocapFormatError(inp, f"{plural(frames, 'frame')}: a fit needs at least 5")
     ref = None
     if reference is not None:  # checked before the (long) fit
         ref = check_reference(load_motion(reference, asf, purpose="a reference", fps=amc_fps, unit=unit,
-                                          unit_option="--unit"), reference, frames=source.num_frames,
+                                          unit_option="--unit"), reference, frames=frames,
                               skeleton=model.skeleton_, whose=f"the model's ({model_path.name})", option="--unit")
     try:
-        weights, result, info = model.fit_readings(local, source.fps, sensors=default_sensors(performer, up_axis=model.up_),
-                                                   orientations=orient, skeleton=performer, return_info=True)
+        weights, result, info = model.fit_readings(readings, fps, sensors=sensors, orientations=orient,
+                                                   skeleton=performer, return_info=True)
     except ValueError as exc:
         raise MocapError(f"{inp}: {exc}") from None
-    result = laid_out_like(result, source, follow=False)  # the joints above the pelvis as the take has them
+    if isinstance(source, Motion):
+        result = laid_out_like(result, source, follow=False)  # the joints above the pelvis as the take has them
     report, errors = "", {}
     if ref is not None:
         report, errors = _reference_report(ref, result, reference)
@@ -216,7 +248,6 @@ def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, 
         report += f"; compared: all {len(compared)} joints of {reference.name}"
         errors.update(compared=compared)
     licence = desc.get("licence")
-    notes = []
     if licence:
         notes.append(f"the poses come from {model_path}, built from takes under {licence}: so is {out.name}")
     _write(result, out, asf_file, overwrite, "multilinear", licence)
@@ -227,20 +258,19 @@ def _reconstruct_multilinear(model_path: Path, kind: str, inp: Path, out: Path, 
         import json
 
         print(json.dumps({"out": str(out), "frames": result.num_frames, "fps": result.fps, "method": "multilinear",
-                          "from": plural(len(sensors), "accelerometer"), "model": str(model_path),
+                          "from": what, "model": str(model_path),
                           "weights": {m: [round(float(x), 6) for x in w] for m, w in zip(model.modes_, weights)},
                           "relative_distance": info["relative_distance"], "mean_distance": info["mean_distance"],
                           **errors, "notes": notes}))
         return
-    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from "
-                  f"{plural(len(sensors), 'accelerometer')}, {fit}{report}")
+    console.print(f"wrote {out}: {plural(result.num_frames, 'frame')} @ {result.fps:g} fps from {what}, {fit}{report}")
     for note in notes:
         console.print(f"note: {note}")
 
 
 def reconstruct(
     db_dir: Optional[Path] = typer.Option(None, "--db", help="The knowledge base: a database folder (`mocapkit db build`); or give --multilinear."),
-    multilinear: Optional[Path] = typer.Option(None, "--multilinear", help="Instead of --db: a multilinear model of the take's motion class (`mocapkit multilinear build`), fitted to --accelerometers (Tautges ch. 2)."),
+    multilinear: Optional[Path] = typer.Option(None, "--multilinear", help="Instead of --db: a multilinear model of the take's motion class (`mocapkit multilinear build`), fitted to the accelerations of --accelerometers or of --markers (Tautges ch. 2)."),
     out: Path = typer.Option(..., "--out", "-o", help="Reconstructed full-body motion (.bvh or .npz; .amc when the body is on an ASF's skeleton: --skeleton X.asf, or an .amc input; the ASF is copied beside it)."),
     markers: Optional[Path] = typer.Option(
         None, "--markers", help="A few marker trajectories (.c3d, .trc, marker .npz, or a motion whose joints become markers): local linear models (Krüger 2010, 5.2)."
@@ -288,9 +318,8 @@ def reconstruct(
         raise MocapError("give exactly one knowledge base: --db DB_DIR (a database) or --multilinear MODEL (a model)")
     if multilinear is not None:
         return _reconstruct_multilinear(
-            multilinear, kind, inp, out, skeleton, reference, as_json, asf, amc_fps, unit, overwrite,
-            unused=[o for o, v in (("--use", use), ("--up-axis", up_axis), ("--synthesis", synthesis),
-                                   ("--neighbours", neighbours), ("--smoothing", smoothing),
+            multilinear, kind, inp, out, skeleton, reference, as_json, asf, amc_fps, unit, overwrite, use, up_axis,
+            unused=[o for o, v in (("--synthesis", synthesis), ("--neighbours", neighbours), ("--smoothing", smoothing),
                                    ("--knowledge", knowledge)) if v is not None])
     given_acc = [(o, k, v) for o, k, v in (("--synthesis", "synthesis", synthesis), ("--neighbours", "k", neighbours),
                                            ("--smoothing", "smoothing", smoothing)) if v is not None]

@@ -89,6 +89,7 @@ __all__ = [
     "acceleration_distance",
     "MultilinearModel",
     "simulated_readings",
+    "marker_accelerations",
 ]
 
 # -- the rotation-invariant acceleration distance (eq. 2.10) -------------------------------
@@ -614,6 +615,19 @@ def simulated_readings(motion: Motion, sensors: Sequence[Sensor] | None = None) 
     joints = [motion.skeleton.index(s.joint) for s in sensors]
     orientations = R.quaternion_multiply(grot[:, joints], np.stack([s.rotation for s in sensors]))
     return sensors, readings, orientations
+
+
+def marker_accelerations(positions: np.ndarray, fps: float, skeleton: Skeleton) -> np.ndarray:
+    """The global coordinate accelerations (F, M, 3), m/s^2, of marker trajectories (F, M, 3) in ``skeleton``'s
+    length unit: the second derivative by the five-point stencil (:func:`~mocapkit.features.five_point_derivative`,
+    Tautges 2012 eq. 3.2). These are what eq. 2.7 asks of a sensor, gravity-free and in the world frame, at the
+    joints the markers sit on: :meth:`MultilinearModel.fit_readings` takes them with the joint names as sensors.
+    A marker not seen (NaN) gives NaN within two frames of it, which the fit leaves out (eq. 2.10).
+    """
+    p = np.asarray(positions, dtype=np.float64)
+    if p.ndim != 3 or p.shape[-1] != 3:
+        raise ValueError(f"positions: expected shape (F, M, 3), got {p.shape}")
+    return five_point_derivative(p * (unit_scale_cm(skeleton) / 100.0), float(fps), order=2, axis=0)
 
 
 def _sensor_positions(motion: Motion, sensors: Sequence) -> np.ndarray:
