@@ -138,8 +138,21 @@ def test_a_file_that_is_no_model_or_of_another_version_is_refused_in_one_line(sn
         code, _, err = run("reconstruct", "--multilinear", model, "--accelerometers", SNEAK[1], "-o", out)
         assert code == 2 and one_error_line(err) and said in err and str(model.name) in err, err
         assert not out.exists()
-    code, _, err = run("info", sneak_model)  # a model is no motion: said as such
-    assert code == 2 and one_error_line(err) and "an npz of kind 'multilinear model', not a motion" in err
+    code, stdout, err = run("info", sneak_model)  # what a model holds, as info says it of a database
+    assert code == 0, err
+    rows = dict(ln.split(None, 1) for ln in stdout.splitlines() if ln.strip())
+    assert rows["kind"] == "multilinear model (reconstruct --multilinear)" and rows["class"] == "sneak2StepsLStart"
+    assert rows["modes"] == "actor (1) x repetition (2)" and rows["takes"].startswith("2 of 2 cells")
+    code, _, err = run("info", newer)
+    assert code == 2 and one_error_line(err) and "format version 2" in err
+    arrays["kind"] = np.array("something")
+    np.savez(newer, **arrays)
+    code, _, err = run("info", newer)
+    assert code == 2 and one_error_line(err) and "not a multilinear model (an npz of kind 'something'" in err
+    other = tmp_path / "other.npz"  # no model's arrays, of another kind: the take reader names its kind
+    np.savez(other, kind=np.array("something"), format_version=np.array(1))
+    code, _, err = run("info", other)
+    assert code == 2 and one_error_line(err) and "an npz of kind 'something', not a motion or markers" in err
 
 
 @pytest.mark.parametrize("args, said", [

@@ -431,6 +431,18 @@ def _info_of_own_file(path: Path) -> bool:
             keys = set(z.files)  # the archive's listing: nothing inflated
     except Exception:  # noqa: BLE001 - not a readable archive: the take reader says why, naming the file
         return False
+    if {"kind", "format_version", "description", "rotations", "root", "observed"} <= keys:  # multilinear build's
+        from ..reconstruct.multilinear_file import load_model
+
+        model, desc = load_model(path)  # refused in one line where it is no model of this version
+        t = model.tensor_
+        rows = [("file", str(path)), ("kind", "multilinear model (reconstruct --multilinear)"),
+                ("class", str(desc.get("class") or "?")),
+                ("modes", " x ".join(f"{m} ({len(e)})" for m, e in zip(t.modes, t.entries))),
+                ("takes", f"{int(t.observed.sum())} of {plural(int(t.observed.size), 'cell')}, aligned to {t.reference}"),
+                ("frames", f"{t.num_frames} @ {t.fps:g} fps"), ("joints", str(t.skeleton.num_joints))]
+        print_fields(rows + ([("licence", str(desc["licence"]))] if desc.get("licence") else []))
+        return True
     if name.endswith(".clean.npz") and "meta" in keys and "changed" in keys:
         from ..cleaning.pipeline import CleanResult
 
