@@ -198,6 +198,22 @@ def test_hdm05_labels_rank_repetitions():
         hdm05_labels(["walk_01"])
 
 
+def test_name_labels_read_the_modes_and_the_one_class_from_hdm05_and_bandai_names():
+    from mocapkit.reconstruct.motion_tensor import name_labels
+
+    assert name_labels(["HDM_bd_x_003_120.amc", "HDM_bd_x_001_120.amc", "HDM_tr_x_007_120.amc"]) == (
+        ("actor", "repetition"), [("bd", 1), ("bd", 0), ("tr", 0)], "x")
+    # Bandai Namco: one take per style gives one mode; a style with two takes adds the repetition
+    assert name_labels(["dataset-1_run_old_001.bvh", Path("/d/dataset-2_run_active_049.bvh")]) == (
+        ("style",), [("old",), ("active",)], "run")
+    assert name_labels(["dataset-1_walk_sad_002.bvh", "dataset-1_walk_sad_001.bvh", "dataset-1_walk_not-confident_001"]) == (
+        ("style", "repetition"), [("sad", 1), ("sad", 0), ("not-confident", 0)], "walk")
+    with pytest.raises(ValueError, match=r"takes of 2 motion classes \(run, walk\)"):
+        name_labels(["dataset-1_run_old_001.bvh", "dataset-1_walk_sad_001.bvh"])
+    with pytest.raises(ValueError, match="'131_01' is named neither"):
+        name_labels(["HDM_bd_x_003_120.amc", "131_01.bvh"])
+
+
 def test_synthesis_of_training_weights_reproduces_the_aligned_clip(sneak, sneak_model):
     t = sneak_model.tensor_
     for idx in [(0, 0), (0, 1)]:
