@@ -179,6 +179,8 @@ def _tensor(path: Path, data: dict, desc: dict, skeleton) -> MotionTensor:
     if rot.shape[2] != root.shape[1] or rot.shape[2] < 5:
         raise MocapFormatError(path, f"the model's rotation and root tensors have {rot.shape[2]} and {root.shape[1]} "
                                      "frames (5 or more, the same)")
+    if not np.linalg.norm(up) > 0:
+        raise MocapFormatError(path, "the model's vertical (up) is the zero vector")
     names = desc["names"]
     if not isinstance(names, list) or len(names) != int(observed.sum()):
         raise MocapFormatError(path, f"the model names {len(names) if isinstance(names, list) else 0} clips for its "
