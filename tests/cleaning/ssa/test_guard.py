@@ -116,7 +116,8 @@ def test_a_guess_across_a_freeze_is_kept_only_nearer_the_joined_path_than_the_ho
     assert guard_joint(orig, out, changed, changed, changed) == []  # smooth and slow: the join rules keep it
     bad = held_guess_runs(orig, out, changed, changed)
     assert [(s, e) for s, e, _ in bad] == [(20, 40)] and "freeze" in bad[0][2]
-    assert held_guess_runs(orig, out, changed, changed & (t < 30)) == []  # written in part from a repeat: not judged
+    assert [(s, e) for s, e, _ in held_guess_runs(orig, out, changed, changed & (t < 30))] == [(20, 40)]  # in part
+    assert held_guess_runs(orig, out, changed, np.zeros(F, dtype=bool)) == []  # all from a repeat: not judged
     steady = _turn(0.5 * t)
     held_steady = np.array(steady)
     held_steady[20:40] = steady[19]
@@ -207,12 +208,15 @@ def test_flags_past_an_error_over_clean_frames_are_given_back(hdm05_errors):
 @pytest.mark.parametrize("take, seed, joint, frames", [
     ("HDM_bk_rotateArmsBothBackward1Reps_005_120.amc", 1002, "rwrist", (101, 134)),
     ("HDM_bd_sneak2StepsLStart_001_120.amc", 1001, "rtoes", (102, 127)),
+    ("HDM_dg_throwBasketball_007_120.amc", 1002, "rwrist", (268, 301)),
 ])
 def test_a_freeze_s_guess_further_from_its_joined_path_is_given_back(hdm05_errors, take, seed, joint, frames):
     """HDM05 takes with real-style errors, a freeze among them: bk rotateArmsBothBackward's right wrist held over
     frames 101-133 while it turns 17 deg one way and back (bridged the other way: 9.6 -> 15.8 deg off the clean
     take), bd sneak2StepsLStart's right toes held over 102-126 (written from the take's own next moment, flexing
-    where the toes extend: 10.8 -> 12.1 deg). Each freeze is given back as it came, named."""
+    where the toes extend: 10.8 -> 12.1 deg), dg throwBasketball's right wrist held over 268-300, bridged over its
+    first 5 frames and written from a neighbour word over the rest (4.2 -> 7.6 deg). Each freeze is given back as it
+    came, named."""
     ref, bad, mask, det = hdm05_errors(take, seed)
     j = ref.skeleton.index(joint)
     a, b = frames
