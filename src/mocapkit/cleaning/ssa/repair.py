@@ -28,6 +28,7 @@ from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint, held_guess_runs, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
+from .limb_paths import HALF_TURN_DEG, limb_left, limb_positions, limb_runs
 from .swap_exchange import pair_exchange, partner_swaps, swap_exchanges
 from .undo import undone_offsets
 from ...words import plural
@@ -216,8 +217,9 @@ def repair_with_left(
     With ``guard`` (the default), each run of one joint's changed cells is checked against the take itself
     before contacts and foot skate (:mod:`~mocapkit.cleaning.ssa.guard`): a run that joins the take less
     smoothly than the input did, a bridge turning far faster than the joint does anywhere else, or a run that
-    moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), is given
-    back its input values bit for bit; so is a run's end frame that lies on the joint's own path (its break its
+    moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), or one that turns its joint half a
+    turn and puts the limb below it further than the input did from the path its joins imply, with the runs below
+    it inside its frames (:mod:`~mocapkit.cleaning.ssa.limb_paths`), is given back its input values bit for bit; so is a run's end frame that lies on the joint's own path (its break its
     neighbour's), the run repaired without it; and where one side of a left/right pair is given back while its
     partner digresses over the same frames, the pair is exchanged back as a swap where that joins the take, else
     the partner's run over those frames is given back too (:func:`_guard`); ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
@@ -428,7 +430,10 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     words were all the take's own motion less than a word from their source word, whose runs at the take's
     first or last frame are given back (:func:`~mocapkit.cleaning.ssa.guard.open_end_runs`), and with the bridged ones
     make the guesses whose held runs are judged by the path their joins imply
-    (:func:`~mocapkit.cleaning.ssa.guard.held_guess_runs`). A run of one side of a left/right pair that fails while
+    (:func:`~mocapkit.cleaning.ssa.guard.held_guess_runs`). A run that turns its joint half a turn is judged by the
+    positions of the joints below it (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_runs`), and where it fails, the
+    runs below it within its frames replaced throughout are left too
+    (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_left`). A run of one side of a left/right pair that fails while
     its partner digresses over the same frames is put back as a swap where the mirrored exchange joins the take
     (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else its partner's runs over those frames
     that hold a replaced cell are left too (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
@@ -440,18 +445,34 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     changed = np.any(out_rot != orig, axis=-1)
     runs: dict[tuple[int, int, int], str] = {}  # (joint, start, end) -> why, the runs given back
     failed = []
+    turned = np.degrees(R.geodesic_angle(orig, out_rot)) >= HALF_TURN_DEG  # (F, J): judged by the limb (limb_paths.py)
+    pos_in = pos_out = None
+    limb_failed: list[tuple[int, int, int]] = []
     for j in np.flatnonzero((replaced | undone).any(axis=0)):
+        limb = []
+        if turned[:, j].any():
+            if pos_in is None:
+                pos_in = motion.global_transforms()
+                pos_out = dataclasses.replace(motion, rotations=out_rot).global_transforms()
+            limb = limb_runs(orig[:, j], out_rot[:, j], changed[:, j], limb_positions(motion, *pos_in, int(j)),
+                             limb_positions(motion, *pos_out, int(j)))
         tiny = negligible_runs(orig[:, j], out_rot[:, j], changed[:, j])  # (negligible.py)
         worse = guard_joint(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j], flags[:, j])
         worse += [r for r in open_end_runs(changed[:, j], own_next[:, j])
                   if r[:2] not in {w[:2] for w in worse}]  # a run at the take's edge: no join there to judge it by
         worse += [r for r in held_guess_runs(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j] | own_next[:, j])
                   if r[:2] not in {w[:2] for w in worse}]  # a freeze's guess: judged by the path its joins imply
+        worse += [r for r in limb if r[:2] not in {w[:2] for w in worse}]  # a half turn: judged by the limb's path
+        limb_failed += [(int(j), int(s), int(e)) for s, e, _ in limb]
         worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
         failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
         for s, e, why in tiny + worse:
             runs[int(j), int(s), int(e)] = why
             out_rot[s:e, j] = orig[s:e, j]
+    for k, s, e, why in limb_left(changed, limb_failed, motion.skeleton.parents, replaced):  # (limb_paths.py)
+        if (k, s, e) not in runs:
+            runs[k, s, e] = why
+            out_rot[s:e, k] = orig[s:e, k]
     partner = mirror_pairs(names)
     mirrored = None
     unresolved = []
