@@ -14,7 +14,7 @@ from mocapkit.cleaning import ssa
 from mocapkit.cleaning.pipeline import clean
 from mocapkit.cleaning.whole_take import detect_take, take_params
 from mocapkit.cleaning.ssa.guard import (angular_acceleration, end_roughness, guard_joint, held, held_guess_runs,
-                                         joined_path, on_path_ends, pair_left, rougher_end, roughness)
+                                         joined_path, margin_runs, on_path_ends, pair_left, rougher_end, roughness)
 
 
 def _turn(angles_deg: np.ndarray) -> np.ndarray:
@@ -334,3 +334,55 @@ def test_a_swap_flagged_on_one_side_only_is_exchanged_back_on_both():
     off = np.degrees(R.geodesic_angle(done.motion.rotations[45:52, knees], ref.rotations[45:52, knees]))
     assert off.max() < 0.01
     assert done.swapped[45:52, knees].all() and not done.swapped[:45].any() and not done.swapped[52:].any()
+
+
+def test_a_run_within_the_margin_beside_an_error_put_back_by_the_take_is_left():
+    """A swap exchanged back over frames 20-29 (``undone``); runs replaced from neighbour words over frames 31-32 and
+    17-18 lie within a 2-frame margin (and the break's frame) beside it and are left; one over 36-39, or one put
+    back in part by the take's own motion, is not judged so."""
+    F = 60
+    undone = np.zeros(F, dtype=bool)
+    undone[20:30] = True
+    changed = np.array(undone)
+    changed[31:33] = changed[17:19] = changed[36:40] = True
+    replaced = changed & ~undone
+    got = margin_runs(changed, replaced, undone, 2)
+    assert [(s, e) for s, e, _ in got] == [(17, 19), (31, 33)] and "margin" in got[0][2]
+    assert margin_runs(changed, replaced, undone, 0) == []
+    replaced[31] = False  # put back in part by the take's own motion
+    assert [(s, e) for s, e, _ in margin_runs(changed, replaced, undone, 2)] == [(17, 19)]
+
+
+def test_clean_frames_past_a_swap_exchanged_back_are_left_as_captured(hdm05_errors):
+    """Frames the flags took in past a swap the exchange put back, clean and written from a neighbour word: Bandai
+    Namco's dataset-2_walk_active_013 (``corrupt --kind errors --seed 2001``), the forearms swapped over frames 52-56,
+    the left one's 58-59 (0.0 -> 1.1 deg off the clean take); HDM05 bd jogLeftCircle4StepsRstart 001 (seed 1002), the
+    right upper arm's frame 81 past its swap over 14-74 (0.0 -> 1.0). Each is left as captured, named, and the
+    swap is still put back."""
+    import os
+    from pathlib import Path
+
+    root = Path(os.environ.get("MOCAPKIT_BANDAI_CACHE", Path.home() / ".cache" / "mocapkit" / "bandai_namco"))
+    path = root / "dataset" / "Bandai-Namco-Research-Motiondataset-2" / "data" / "dataset-2_walk_active_013.bvh"
+    cases = []
+    if path.is_file():
+        ref = mocapkit.load(path)
+        bad, mask, _ = corrupt.corrupt(ref, kind="errors", seed=2001)
+        cases.append((ref, bad, mask, detect_take(bad, None, params=take_params()).detection, "LowerArm_L", (58, 60),
+                      (52, 57)))
+    try:
+        cases.append(hdm05_errors("HDM_bd_jogLeftCircle4StepsRstart_001_120.amc", 1002) + ("rhumerus", (81, 82),
+                                                                                           (14, 75)))
+    except pytest.skip.Exception:
+        pass
+    if not cases:
+        pytest.skip("neither the Bandai Namco archive nor the HDM05 take is at hand")
+    for ref, bad, mask, det, joint, (a, b), (s, e) in cases:
+        j = ref.skeleton.index(joint)
+        assert not mask[a:b, j].any() and det.flags[a:b, j].all() and det.swaps[s:e, j].all()
+        unguarded, _ = ssa.repair_with_left(bad, det, None, foot_skate=False, guard=False)
+        assert np.degrees(R.geodesic_angle(unguarded.rotations[a:b, j], ref.rotations[a:b, j])).max() > 0.5
+        new, left = ssa.repair_with_left(bad, det, None, foot_skate=False)
+        assert np.array_equal(new.rotations[a:b, j], ref.rotations[a:b, j])
+        assert any(r.joint == joint and (r.start, r.end) == (a, b) and "margin" in r.reason for r in left)
+        assert np.degrees(R.geodesic_angle(new.rotations[s:e, j], ref.rotations[s:e, j])).max() < 0.01

@@ -49,23 +49,33 @@ Three more rules, of the run's frames and of a left/right pair rather than of it
   take and left 251 37.6 deg off; the left knee's spike at frame 46 put the clean frame 45 8.2 deg off. Such
   a frame is left as it came (named, as below), and the run repaired without it.
 * **A guess across a freeze is kept only where it comes nearer than the hold to the path the joins imply**
-  (:func:`held_guess_runs`): a held run (:func:`held`) that is bridged, or written from the take's own next
-  moment alone (as :func:`open_end_runs` reads it), over all its frames or some of them, is judged by no join: the hold joins the take smoothly
-  where it starts and with its own step where it ends, so the rules above let any smooth guess through. Yet
-  the take holds two more facts than a slerp uses: the joint's turn into the run (the frame before it from
-  the one before that) and out of it (the frame after it into the next). The cubic Hermite curve that leaves
-  the last live sample at the first and arrives at the run's next frame with the second (:func:`joined_path`)
-  is the path those joins imply; a guess no nearer to it, on average over the run, than the held input is
-  given back. A run written throughout from a repeat of the motion elsewhere in the take or its context is
-  evidence of its own and is not judged so; one that a word covers in part is a guess where it is not, and the
-  blend carries the guess into the word's frames. HDM05 bk ``rotateArmsBothBackward1Reps`` (``real_errors`` seed 1002): the
-  right wrist frozen over frames 101-133 turns 17 deg one way and back while frozen, and its bridge, turning
-  the other way, comes out 15.8 deg off the clean take where the freeze is 9.6 (7.0 against 3.9 deg from the
-  joined path); bd ``sneak2StepsLStart`` 001 (seed 1001): the right toes' freeze over 102-126, written from
-  the take's own next moment, flexes where the toes extend (12.1 against 10.8 deg off the clean take; 13.5
-  against 12.2 from the path); dg ``throwBasketball`` 007 (seed 1002): the right wrist, which hardly moves,
-  frozen over 268-300, bridged over its first 5 frames and written from a neighbour word over the rest, came
-  out 7.6 deg off the clean take where the freeze is 4.2 (6.8 against 6.2 deg from the path).
+  (:func:`held_guess_runs`): a held run (:func:`held`) that is bridged, or written from the take's own next moment
+  alone (as :func:`open_end_runs` reads it), over all its frames or some of them, is judged by no join: the hold
+  joins the take smoothly where it starts and with its own step where it ends, so the rules above let any smooth
+  guess through. Yet the take holds two more facts than a slerp uses: the joint's turn into the run (the frame
+  before it from the one before that) and out of it (the frame after it into the next). The cubic Hermite curve that
+  leaves the last live sample at the first and arrives at the run's next frame with the second (:func:`joined_path`)
+  is the path those joins imply; a guess no nearer to it, on average over the run, than the held input is given
+  back. A run written throughout from a repeat of the motion elsewhere in the take or its context is evidence of its
+  own and is not judged so; one that a word covers in part is a guess where it is not, and the blend carries the
+  guess into the word's frames. HDM05 bk ``rotateArmsBothBackward1Reps`` (``real_errors`` seed 1002): the right
+  wrist frozen over frames 101-133 turns 17 deg one way and back while frozen, and its bridge, turning the other
+  way, comes out 15.8 deg off the clean take where the freeze is 9.6 (7.0 against 3.9 deg from the joined path); bd
+  ``sneak2StepsLStart`` 001 (seed 1001): the right toes' freeze over 102-126, written from the take's own next
+  moment, flexes where the toes extend (12.1 against 10.8 deg off the clean take; 13.5 against 12.2 from the path);
+  dg ``throwBasketball`` 007 (seed 1002): the right wrist, which hardly moves, frozen over 268-300, bridged over its
+  first 5 frames and written from a neighbour word over the rest, came out 7.6 deg off the clean take where the
+  freeze is 4.2 (6.8 against 6.2 deg from the path).
+* **An error the take's own motion put back ends where its exchange ends** (:func:`margin_runs`): the
+  confirmation takes in the digressing frames within its margin (``confirm_margin_s``) of a break, for the
+  neighbour words an error leads astray span it on both sides; where a swap is exchanged back or an offset
+  taken away, the joins of the take's own motion bound the error, and a run of the same joint replaced from
+  neighbour words over frames only that margin (and the break's frame) away from it is the digression spread
+  past the error, not an error of its own. Bandai Namco ``dataset-2_walk_active_013`` (seed 2001): the
+  forearms' swap over frames 52-56, exchanged back, and the left one's frames 58-59, clean, written from a
+  neighbour word 1.1 deg off the clean take; HDM05 bd ``jogLeftCircle4StepsRstart`` 001 (seed 1002): the
+  right upper arm's clean frame 81, six frames past its swap exchanged back over 14-74, 1.0 deg off. Such a run is
+  given back and named.
 * **A left/right pair is put back together or not at all** (:func:`pair_left`): where the guard leaves a run
   of one joint of a pair (:func:`~mocapkit.joints.mirror_pairs`), the partner's repaired runs over the same
   frames are left too. Two sides that digress over the same frames are most often one error of the pair (a
@@ -92,7 +102,8 @@ from ..ik import contact_segments
 from ...words import frame_span
 
 __all__ = ["LEFT_PREFIX", "LeftRun", "ON_PATH_RATIO", "angular_acceleration", "end_roughness", "guard_joint", "held",
-           "held_guess_runs", "joined_path", "on_path_ends", "open_end_runs", "pair_left", "rougher_end", "roughness"]
+           "held_guess_runs", "joined_path", "margin_runs", "on_path_ends", "open_end_runs", "pair_left", "rougher_end",
+           "roughness"]
 
 #: degrees per frame squared a repaired run may add to the input's largest angular acceleration: the joins of a
 #: 0.25 s blend add about 1 (a smooth drift repaired from a twin: 0.1 -> 1.1), a step put into a real turn tens
@@ -302,6 +313,33 @@ def held_guess_runs(orig: np.ndarray, out: np.ndarray, changed: np.ndarray,
         if d_out >= d_in:
             bad.append((int(s), int(e), f"a guess across a freeze {d_out:.1f} deg from the path its joins imply, the "
                                         f"hold {d_in:.1f}"))
+    return bad
+
+
+def margin_runs(changed: np.ndarray, replaced: np.ndarray, undone: np.ndarray,
+                margin: int) -> list[tuple[int, int, str]]:
+    """The runs of one joint's repair that lie within the confirmation's margin beside a run the take's own motion
+    put back (module docstring), as ``(start, end, reason)`` (end exclusive).
+
+    ``changed`` (F,) bool: the frames the repair changed (the runs judged are its maximal runs); ``replaced`` (F,)
+    bool: the frames written from neighbour words or bridged; ``undone`` (F,) bool: the frames put back by the
+    take's own motion (a swap exchanged back, an offset taken away); ``margin`` frames: the confirmation's margin
+    at the take's rate (``round(confirm_margin_s * fps)``). A run replaced throughout, with no frame put back,
+    is judged; it fails where it lies within ``margin + 1`` frames after the end of a run of ``undone`` (the
+    break's second frame, then the margin) or before its start.
+    """
+    changed, replaced = np.asarray(changed, dtype=bool), np.asarray(replaced, dtype=bool)
+    undone = np.asarray(undone, dtype=bool)
+    put_back = contact_segments(undone)
+    bad = []
+    for s, e in contact_segments(changed):
+        if undone[s:e].any() or not replaced[s:e].all():
+            continue
+        for a, b in put_back:
+            if b <= s and e <= b + margin + 1 or e <= a and s >= a - margin - 1:
+                bad.append((int(s), int(e), f"within the confirmation's margin of frames {a}-{b - 1}, put back by the "
+                                            "take's own motion: the digression spread past the error"))
+                break
     return bad
 
 

@@ -26,7 +26,7 @@ from .detect import Detection
 from .neighbours import dropped_terms, near_neighbors, neighbor_words
 from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_runs, without_repeats
 from .texture import Analysis, align_hemisphere, frame_words, prepare
-from .guard import LeftRun, guard_joint, held_guess_runs, on_path_ends, open_end_runs, pair_left
+from .guard import LeftRun, guard_joint, held_guess_runs, margin_runs, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
 from .limb_paths import HALF_TURN_DEG, limb_left, limb_positions, limb_runs
 from .swap_exchange import pair_exchange, partner_swaps, swap_exchanges
@@ -216,14 +216,16 @@ def repair_with_left(
 
     With ``guard`` (the default), each run of one joint's changed cells is checked against the take itself
     before contacts and foot skate (:mod:`~mocapkit.cleaning.ssa.guard`): a run that joins the take less
-    smoothly than the input did, a bridge turning far faster than the joint does anywhere else, or a run that
-    moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), or one that turns its joint half a
+    smoothly than the input did, a bridge turning far faster than the joint does anywhere else, a run that
+    moves no cell by half a degree (:mod:`~mocapkit.cleaning.ssa.negligible`), one that turns its joint half a
     turn and puts the limb below it further than the input did from the path its joins imply, with the runs below
-    it inside its frames (:mod:`~mocapkit.cleaning.ssa.limb_paths`), is given back its input values bit for bit; so is a run's end frame that lies on the joint's own path (its break its
-    neighbour's), the run repaired without it; and where one side of a left/right pair is given back while its
-    partner digresses over the same frames, the pair is exchanged back as a swap where that joins the take, else
-    the partner's run over those frames is given back too (:func:`_guard`); ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames of
-    ``motion``). Without it every flagged cell is repaired as above and ``left`` is empty.
+    it inside its frames (:mod:`~mocapkit.cleaning.ssa.limb_paths`), or one within the confirmation's margin
+    beside a swap exchanged back or an offset taken away, is given back its input values bit for bit; so is a
+    run's end frame that lies on the joint's own path (its break its neighbour's), the run repaired without it;
+    and where one side of a left/right pair is given back while its partner digresses over the same frames, the
+    pair is exchanged back as a swap where that joins the take, else the partner's run over those frames is given
+    back too (:func:`_guard`); ``left`` names each such run (:class:`~mocapkit.cleaning.ssa.guard.LeftRun`, frames
+    of ``motion``). Without it every flagged cell is repaired as above and ``left`` is empty.
     """
     if not isinstance(detection, Detection):
         raise TypeError(f"detection must be a Detection, got {type(detection).__name__}")
@@ -362,7 +364,8 @@ def repair_with_left(
         out_rot[:, j] = _blend_runs(base[:, j], new[:, j], placed[:, j], window)
     left: list[LeftRun] = []
     if guard:  # a run the take shows to be no better than its input is given back as it was (guard.py)
-        left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path, own_next & ~undone)
+        left = _guard(motion, out_rot, flags, placed & ~undone, undone, bridged, on_path, own_next & ~undone,
+                      int(round(p.confirm_margin_s * motion.fps)))
     left = _pair_lines(motion, kept_pairs) + left
     out = dataclasses.replace(motion, rotations=out_rot)
     if contacts:
@@ -419,7 +422,7 @@ def _pair_lines(motion: Motion, kept: np.ndarray) -> list[LeftRun]:
 
 
 def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.ndarray, undone: np.ndarray,
-           bridged: np.ndarray, on_path: np.ndarray, own_next: np.ndarray) -> list[LeftRun]:
+           bridged: np.ndarray, on_path: np.ndarray, own_next: np.ndarray, margin: int = 0) -> list[LeftRun]:
     """The repair guard (:mod:`~mocapkit.cleaning.ssa.guard`) on ``out_rot`` (F, J, 4), the repaired rotations,
     changed in place: each run it fails given back its input values; the runs left, in order.
 
@@ -430,7 +433,9 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     words were all the take's own motion less than a word from their source word, whose runs at the take's
     first or last frame are given back (:func:`~mocapkit.cleaning.ssa.guard.open_end_runs`), and with the bridged ones
     make the guesses whose held runs are judged by the path their joins imply
-    (:func:`~mocapkit.cleaning.ssa.guard.held_guess_runs`). A run that turns its joint half a turn is judged by the
+    (:func:`~mocapkit.cleaning.ssa.guard.held_guess_runs`). A run replaced throughout within ``margin`` frames (the
+    confirmation's, at the take's rate) beside a run put back by the take's own motion is given back
+    (:func:`~mocapkit.cleaning.ssa.guard.margin_runs`). A run that turns its joint half a turn is judged by the
     positions of the joints below it (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_runs`), and where it fails, the
     runs below it within its frames replaced throughout are left too
     (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_left`). A run of one side of a left/right pair that fails while
@@ -463,6 +468,8 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
         worse += [r for r in held_guess_runs(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j] | own_next[:, j])
                   if r[:2] not in {w[:2] for w in worse}]  # a freeze's guess: judged by the path its joins imply
         worse += [r for r in limb if r[:2] not in {w[:2] for w in worse}]  # a half turn: judged by the limb's path
+        worse += [r for r in margin_runs(changed[:, j], replaced[:, j], undone[:, j], margin)
+                  if r[:2] not in {w[:2] for w in worse}]  # past an error the take's own motion bounds
         limb_failed += [(int(j), int(s), int(e)) for s, e, _ in limb]
         worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
         failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
