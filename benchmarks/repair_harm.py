@@ -53,7 +53,8 @@ Left by the guard and counted in no row (the unguarded baseline's worse runs): a
 clean take (the thigh half a turn about its bone, the knee past its limit), which a swap ends on or an offset
 reads as its own, is given back by its limb's positions (``cleaning/ssa/limb_paths.py``): HDM05 bk depositFloorR
 s1001 rfemur 138-213 (23.5 -> 127.3 deg unguarded) and the knee inside it, rtibia 173-205 (0.0 -> 33.7); dg
-squat1Reps s1001 lfemur 62-78 (37.5 -> 83.5), its partner rfemur 62-78 (37.5 -> 4.7) left with it as a pair.
+squat1Reps s1001 lfemur 62-78 (37.5 -> 83.5 unguarded) is exchanged back with its partner by the limbs'
+positions (``limb_paths.exchange_nearer``): both thighs 37.5 -> 0.0.
 Clean frames within the confirmation's margin past a swap exchanged back (``guard.margin_runs``): Bandai
 walk_active_013 s2001 LowerArm_L 58-59 (0.0 -> 1.1 deg), HDM05 bd jogLeftCircle4StepsRstart s1002 rhumerus 81
 (0.0 -> 1.0), mm squat1Reps 038 s2001 rhumerus 66-69 (0.0 -> 0.5).

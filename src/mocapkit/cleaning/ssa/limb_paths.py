@@ -25,17 +25,24 @@ the foot up to 9 units off the clean take where the swapped input had it within 
 the joined path, over the knee, ankle, toes and toe tip); bk ``depositFloorR`` 007 (seed 1001): the right
 thigh's other solution over 138-205, taken away as an offset, put the foot 5.5-10.5 units off (5.0 against 4.1
 from the path). Each is given back and named; a run inside it, of a joint below, replaced from neighbour words
-or bridged, goes with it (:func:`limb_left`). A rule of this library, not of the paper.
+or bridged, goes with it (:func:`limb_left`). Where the joint's left/right partner digresses over the same
+frames, the pair is exchanged back as a swap (each its partner's mirrored rotation) if that puts both limbs
+nearer their joined paths than the input (:func:`exchange_nearer`): the squat's thighs, swapped over 62-78, put
+back exactly (37.5 -> 0.0 deg), where the exchange's rotation joins fail at frame 79 on the solver's own step.
+A rule of this library, not of the paper.
 """
 
 from __future__ import annotations
+
+import dataclasses
 
 import numpy as np
 
 from ... import rotations as R
 from ..ik import contact_segments
 
-__all__ = ["HALF_TURN_DEG", "LIMB_MARGIN", "below", "joined_positions", "limb_left", "limb_positions", "limb_runs"]
+__all__ = ["HALF_TURN_DEG", "LIMB_MARGIN", "below", "exchange_nearer", "joined_positions", "limb_left",
+           "limb_positions", "limb_runs"]
 
 #: degrees: a repaired run that moves some cell of its joint this far from its input turns the limb below it
 #: elsewhere and is judged by the limb's positions (a thigh's other solution taken away: 150-180 deg)
@@ -157,3 +164,31 @@ def limb_left(changed: np.ndarray, left: list[tuple[int, int, int]], parents: np
                     out.append((int(k), int(a), int(b), f"the joint above it was left over frames {s}-{e - 1} by its "
                                                         "limb's positions: the joints below follow it"))
     return out
+
+
+def exchange_nearer(motion, mirrored: np.ndarray, joints, start: int, end: int) -> bool:
+    """Whether the left/right pair ``joints`` exchanged with their mirrored rotations over frames ``start .. end - 1``
+    puts both limbs nearer the path their joins imply than the input does (the mean distance of each limb's
+    positions, :func:`limb_positions`, from :func:`joined_positions` of the input's over the run).
+
+    The rotation joins of such an exchange may fail where the take's own other solution steps at the run's end
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), while the limbs' positions run on: HDM05 dg
+    ``squat1Reps`` 025 (``real_errors`` seed 1001), the thighs swapped over frames 62-78, the left one's next
+    frame on its other solution. ``motion`` the input take; ``mirrored`` (F, J, 4) its mirrored rotations
+    (:func:`~mocapkit.cleaning.ssa.cues.mirrored_rotations`).
+    """
+    joints = list(joints)
+    trial = np.array(motion.rotations)
+    trial[start:end, joints] = mirrored[start:end, joints]
+    given = motion.global_transforms()
+    exchanged = dataclasses.replace(motion, rotations=trial).global_transforms()
+    for k in joints:
+        p_in, p_ex = limb_positions(motion, *given, k), limb_positions(motion, *exchanged, k)
+        path = joined_positions(p_in, start, end)
+        if path is None or p_in.shape[1] == 0:
+            return False
+        d_ex = float(np.linalg.norm(p_ex[start:end] - path, axis=-1).mean())
+        d_in = float(np.linalg.norm(p_in[start:end] - path, axis=-1).mean())
+        if not d_ex < d_in:
+            return False
+    return True

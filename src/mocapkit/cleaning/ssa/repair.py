@@ -28,7 +28,7 @@ from .repeats import blend_inbetweens, expand, frame_index, kept_frames, repeat_
 from .texture import Analysis, align_hemisphere, frame_words, prepare
 from .guard import LeftRun, guard_joint, held_guess_runs, margin_runs, on_path_ends, open_end_runs, pair_left
 from .negligible import negligible_runs
-from .limb_paths import HALF_TURN_DEG, limb_left, limb_positions, limb_runs
+from .limb_paths import HALF_TURN_DEG, exchange_nearer, limb_left, limb_positions, limb_runs
 from .swap_exchange import pair_exchange, partner_swaps, swap_exchanges
 from .undo import undone_offsets
 from ...words import plural
@@ -438,10 +438,13 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
     (:func:`~mocapkit.cleaning.ssa.guard.margin_runs`). A run that turns its joint half a turn is judged by the
     positions of the joints below it (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_runs`), and where it fails, the
     runs below it within its frames replaced throughout are left too
-    (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_left`). A run of one side of a left/right pair that fails while
-    its partner digresses over the same frames is put back as a swap where the mirrored exchange joins the take
-    (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else its partner's runs over those frames
-    that hold a replaced cell are left too (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
+    (:func:`~mocapkit.cleaning.ssa.limb_paths.limb_left`); where its partner digresses over the same frames,
+    the pair is exchanged back if that puts both limbs nearer their joined paths
+    (:func:`~mocapkit.cleaning.ssa.limb_paths.exchange_nearer`), whatever the rotation joins say. A run of one
+    side of a left/right pair that fails while its partner digresses over the same frames is put back as a swap
+    where the mirrored exchange joins the take (:func:`~mocapkit.cleaning.ssa.swap_exchange.pair_exchange`), else
+    its partner's runs over those frames that hold a replaced cell are left too
+    (:func:`~mocapkit.cleaning.ssa.guard.pair_left`).
     """
     orig = motion.rotations
     names = motion.skeleton.joint_names
@@ -490,6 +493,9 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
         if mirrored is None:
             mirrored = mirrored_rotations(motion)
         got = pair_exchange(orig, mirrored, flags, j, s, e, partner)
+        by_limb = got is None and (j, s, e) in limb_failed and exchange_nearer(motion, mirrored, (j, p), s, e)
+        if by_limb:  # a half turn left by its limb's positions: the exchange judged by them too (limb_paths.py)
+            got = s, e - 1
         if got is None:
             unresolved.append((j, s, e))
             continue
@@ -497,7 +503,7 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
         trial = np.array(out_rot[:, [j, p]])
         trial[a : b + 1] = mirrored[a : b + 1, [j, p]]
         ok = True
-        for i, k in enumerate((j, p)):
+        for i, k in enumerate((j, p) if not by_limb else ()):
             moved = np.any(trial[:, i] != orig[:, k], axis=-1)
             ran = [r for r in contact_segments(moved) if r[0] <= a and r[1] > b]
             bad = guard_joint(orig[:, k], trial[:, i], moved, np.zeros(len(moved), dtype=bool), flags[:, k])
