@@ -6,7 +6,7 @@ other way, the *other solution* of the leg, with the knee and foot where the mar
 step where the solver changes solution while the limb's positions run on smoothly, so self-similarity repair
 (Aristidou et al. 2018, section 4) takes the steps for an error: a transient offset taken away, or a bridge
 slerped from one solution to the other across a run, turns the joint half a turn and the bones below it follow,
-the foot wherever the joint's new rotation puts it and no longer where the capture had it. The rotation rules
+the foot wherever the joint's new rotation puts it, not where the capture had it. The rotation rules
 of :mod:`~mocapkit.cleaning.ssa.guard` cannot see it: the repaired rotations join the take more smoothly than
 the solver's steps did.
 
@@ -161,7 +161,7 @@ def limb_left(changed: np.ndarray, left: list[tuple[int, int, int]], parents: np
         for k in under[under < J]:
             for a, b in contact_segments(np.asarray(changed[:, k], dtype=bool)):
                 if s <= a and b <= e and replaced[a:b, k].all():
-                    out.append((int(k), int(a), int(b), f"the joint above it was left over frames {s}-{e - 1} by its "
+                    out.append((int(k), int(a), int(b), f"the joint above it is left over frames {s}-{e - 1} by its "
                                                         "limb's positions: the joints below follow it"))
     return out
 
