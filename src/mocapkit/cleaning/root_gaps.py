@@ -164,17 +164,27 @@ def _candidates(q: np.ndarray, gap: np.ndarray, up, X, fps: float) -> dict[str, 
     return out
 
 
-def _stretches(gap: np.ndarray, n: int) -> list[int]:
-    """Up to :data:`CHECK_STRETCHES` first frames of ``n``-frame stretches clear of ``gap`` by :data:`CHECK_MARGIN`
-    frames, spread evenly over the take."""
+def _trials(gap: np.ndarray, trial) -> dict[int, list]:
+    """For each length ``n`` of an interior run of ``gap`` (F,) bool: the answers of ``trial(cut, a, b)`` on up to
+    :data:`CHECK_STRETCHES` stretches ``a .. b - 1`` of ``n`` frames clear of ``gap`` by :data:`CHECK_MARGIN`, spread
+    evenly over the take, ``cut`` (F,) bool the gap with the stretch cut too: the take's measured frames on which
+    :func:`fill_root_rotation` and :func:`fill_pelvis_path` try their candidate fills."""
     F = len(gap)
     cs = np.concatenate([[0], np.cumsum(gap)])
-    first = np.arange(CHECK_MARGIN, F - n - CHECK_MARGIN)
-    first = first[cs[first + n + CHECK_MARGIN] == cs[first - CHECK_MARGIN]]
-    if not len(first):
-        return []
-    return sorted(set(first[np.linspace(0, len(first) - 1, min(CHECK_STRETCHES, len(first))).round().astype(int)]
-                      .tolist()))
+    out: dict[int, list] = {}
+    for s, e in _runs(gap):
+        n = e - s
+        if n in out or s == 0 or e == F:
+            continue
+        first = np.arange(CHECK_MARGIN, F - n - CHECK_MARGIN)
+        first = first[cs[first + n + CHECK_MARGIN] == cs[first - CHECK_MARGIN]]
+        pick = np.linspace(0, len(first) - 1, min(CHECK_STRETCHES, len(first))).round().astype(int)
+        out[n] = []
+        for a in sorted(set(first[pick].tolist())):
+            cut = gap.copy()
+            cut[a:a + n] = True
+            out[n].append(trial(cut, a, a + n))
+    return out
 
 
 def fill_root_rotation(q: np.ndarray, gap: np.ndarray, fps: float, up=None, X=None) -> tuple[np.ndarray, dict]:
@@ -189,17 +199,13 @@ def fill_root_rotation(q: np.ndarray, gap: np.ndarray, fps: float, up=None, X=No
     full = _candidates(q, gap, up, X, fps)
     out = np.array(q)
     chosen = {}
-    score: dict[int, dict[str, float]] = {}
+    trials = _trials(gap, lambda trial, a, b: {
+        name: float(np.mean(R.geodesic_angle(got[a:b], q[a:b]) ** 2))
+        for name, got in _candidates(q, trial, up, X, fps).items()})
+    # a candidate a stretch cannot make (the body's, on too few measured frames) adds nothing to its score
+    score = {n: {name: sum(t.get(name, 0.0) for t in got) for name in full} for n, got in trials.items()}
     for s, e in _runs(gap):
-        n = e - s
-        if n not in score and 0 < s and e < len(q):
-            score[n] = dict.fromkeys(full, 0.0)
-            for p in _stretches(gap, n):
-                trial = gap.copy()
-                trial[p:p + n] = True
-                for name, got in _candidates(q, trial, up, X, fps).items():
-                    score[n][name] += float(np.mean(R.geodesic_angle(got[p:p + n], q[p:p + n]) ** 2))
-        tried = score.get(n)
+        tried = score.get(e - s)
         best = min(tried, key=tried.get) if tried and any(tried.values()) else ("curve" if "curve" in full
                                                                                   else "spline")
         chosen[(s, e)] = best
@@ -309,23 +315,17 @@ def fill_pelvis_path(w: np.ndarray, gap: np.ndarray, at: np.ndarray, up: np.ndar
     turned = np.zeros(F, dtype=bool) if turned is None else np.asarray(turned, dtype=bool)
     out = np.array(w)
     chosen = {}
-    score: dict[int, tuple[dict[str, float], dict[str, float]]] = {}  # all stretches; those the contacts held on
+
+    def tried(trial: np.ndarray, a: int, b: int) -> tuple[bool, dict[str, float]]:  # did the contacts hold; errors
+        got = _path_candidates(w, trial, at, up, cm, fps)
+        return (not np.array_equal(got["contacts"][a:b], got["spline"][a:b]),
+                {name: float(np.mean(np.sum((got[name][a:b] - w[a:b]) ** 2, axis=-1))) for name in full})
+
+    score = {n: ({name: sum(err[name] for _, err in got) for name in ("line", "spline")},  # all stretches
+                 {name: sum(err[name] for held, err in got if held) for name in full})  # those the contacts held on
+             for n, got in _trials(gap, tried).items()}
     for s, e in _runs(gap):
-        n = e - s
-        if n not in score and 0 < s and e < F:
-            score[n] = (dict.fromkeys(("line", "spline"), 0.0), dict.fromkeys(full, 0.0))
-            for p in _stretches(gap, n):
-                trial = gap.copy()
-                trial[p:p + n] = True
-                got = _path_candidates(w, trial, at, up, cm, fps)
-                held = not np.array_equal(got["contacts"][p:p + n], got["spline"][p:p + n])
-                for name in full:
-                    err = float(np.mean(np.sum((got[name][p:p + n] - w[p:p + n]) ** 2, axis=-1)))
-                    if name in score[n][0]:
-                        score[n][0][name] += err
-                    if held:
-                        score[n][1][name] += err
-        every, on_held = score.get(n, ({}, {}))
+        every, on_held = score.get(e - s, ({}, {}))
         held = 0 < s and e < F and not np.array_equal(full["contacts"][s:e], full["spline"][s:e])
         if held and not turned[max(s - 1, 0):e + 1].any():  # the contacts as the stretches they held on judge them
             best = min(on_held, key=on_held.get) if any(on_held.values()) else "contacts"
