@@ -63,7 +63,7 @@ from .gapfill import fill_channels
 from .runs import column_runs
 
 __all__ = ["fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path", "heading_and_tilt",
-           "CONTACT_MISS_CM", "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
+           "foot_joints", "CONTACT_MISS_CM", "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
 
 #: Centimetres: the foot contacts' path across a position gap is kept where it lands this close to the measured
 #: frame after the gap (bent onto it), else the cubic spline fills the gap (the feet were not planted).
@@ -77,7 +77,8 @@ CHECK_MARGIN = 10
 TILT_RIDGE = 0.1
 #: Seconds over which the velocity at a gap's end is read (a backward or forward mean slope).
 SLOPE_S = 1 / 30
-#: The joints whose lowest is taken as the planted one: the ankles and the toes.
+#: The joints whose lowest is taken as the planted one: the ankles and the toes (the ankles alone on a rig without
+#: toes, :func:`foot_joints`).
 FOOT_ROLES = ("left_foot", "right_foot", "left_toe", "right_toe")
 
 
@@ -85,6 +86,18 @@ def _runs(gap: np.ndarray) -> list[tuple[int, int]]:
     """Runs of True of a (F,) bool mask as ``(start, end)``, end exclusive."""
     _, start, end = column_runs(np.asarray(gap, dtype=bool)[:, None])
     return list(zip(start.tolist(), end.tolist()))
+
+
+def foot_joints(skeleton) -> list[int]:
+    """The joints of :data:`FOOT_ROLES` the rig has: both ankles, and the toes where it has them (the Daz release's
+    rig has none: its ankles are the lowest joints of its legs). Raises KeyError where an ankle is not found."""
+    feet = [find_joint(skeleton, r) for r in FOOT_ROLES[:2]]
+    for role in FOOT_ROLES[2:]:
+        try:
+            feet.append(find_joint(skeleton, role))
+        except KeyError:
+            pass
+    return feet
 
 
 def heading_and_tilt(q: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -251,7 +264,7 @@ def fill_root(motion: Motion, body: Motion | None = None) -> tuple[Motion, dict]
     sk = motion.skeleton
     try:
         up = detect_up_axis(sk)
-        feet = [find_joint(sk, r) for r in FOOT_ROLES]
+        feet = foot_joints(sk)
         cm = unit_scale_cm(sk)
     except (KeyError, SkeletonError, ValueError):
         up, feet, cm = None, None, None
@@ -366,7 +379,7 @@ def fill_pelvis(motion: Motion, body: Motion) -> tuple[Motion, dict]:
     if not gap.any() or gap.all():
         return body, {}
     try:
-        feet = [find_joint(sk, r) for r in FOOT_ROLES]
+        feet = foot_joints(sk)
         cm = unit_scale_cm(sk)
     except (KeyError, SkeletonError, ValueError):
         return body, {}
