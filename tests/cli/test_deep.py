@@ -978,3 +978,34 @@ def test_fill_fills_a_pelvis_root_written_nan_from_the_body(tmp_path, channels, 
     for i in (0, 299, 300, 479, 480, 993):  # measured channels: the file's text
         keep = [k for k in range(96) if i < 300 or i >= 480 or k not in channels]
         assert [written[at + i].split()[k] for k in keep] == [lines[first + i].split()[k] for k in keep]
+
+
+def test_fill_fills_a_lost_root_from_the_body_on_a_rig_no_network_serves(tmp_path):
+    """CMU 131_01 on a rig without clavicles (the networks do not serve it: the cubic spline fills its joints), its
+    root position channels written ``nan`` for 1.5 s (frames 300-479): `fill` gave the cubic spline, 28.9 cm RMS
+    off, and said nothing of the root; the feet's contacts now carry it within 10 cm, as where the networks serve
+    the rig, and the output line says so."""
+    from mocapkit.joints import unit_scale_cm
+    from tests.shared import respelled
+
+    truth = respelled(mocapkit.load(BVH), {}, drop=("LeftCollar", "RightCollar"))
+    src = tmp_path / "nocollar.bvh"
+    mocapkit.save(truth, src)
+    lines = src.read_text().splitlines()
+    first = next(i for i, s in enumerate(lines) if s.startswith("Frame Time")) + 1
+    for i in range(first + 300, first + 480):
+        row = lines[i].split()
+        row[0:3] = ["nan"] * 3
+        lines[i] = " ".join(row)
+    gin, gout = tmp_path / "root.bvh", tmp_path / "out.bvh"
+    gin.write_text("\n".join(lines) + "\n")
+    code, out, err = run("fill", gin, "-o", gout)
+    assert code == 0, err
+    said = " ".join(out.split())
+    assert "cubic spline: the shipped EBD does not serve this rig" in said
+    assert "the 180 missing root position(s) among them from the feet's contacts or a cubic spline" in said
+    truth, got = mocapkit.load(src), mocapkit.load(gout)
+    d = got.root_positions[300:480] - truth.root_positions[300:480]
+    assert np.sqrt(np.mean(np.sum(d ** 2, axis=-1))) * unit_scale_cm(truth.skeleton) < 10.0
+    assert np.array_equal(got.root_positions[:300], truth.root_positions[:300])
+    assert np.array_equal(got.rotations, truth.rotations)

@@ -2,8 +2,12 @@
 
 The networks read and write the non-root joints' channels only (Mall et al. 2017, section 3: "we assume that the
 trajectory of the root of the skeleton is clean"), so a take whose root rotation or position is missing over a
-stretch has its body filled by them and its root by this module, conditioned on the rest of the body where the
-body says something about it, else by a curve that meets the gap's ends and their velocities:
+stretch has its body filled by them (by the cubic spline on a rig they do not serve) and its root by this module
+whatever fills the body (:func:`fill_root_gaps`), conditioned on the rest of the body where the body says something
+about it, else by a curve that meets the gap's ends and their velocities. On a rig no network serves (34 root
+gaps of 0.5-2.6 s in HDM05 and CMU takes on the LaFAN1, Xsens, Daz and Unity rigs less their clavicles) the
+position lost alone is 11.2 -> 9.5 cm RMS off against the cubic spline (median 4.2 -> 1.9), and the rotation lost
+with it 27.9 -> 20.4 deg (median 4.3 -> 3.8; 18 gaps nearer, 16 further):
 
 - **Position** (:func:`contact_path`): a planted foot stays where it is in the world, so across a gap the root moves
   opposite to the lowest foot joint's motion relative to it (the body's own pose in the gap, turned by the root's
@@ -62,8 +66,8 @@ from .deep.prior import hermite_blend
 from .gapfill import fill_channels
 from .runs import column_runs
 
-__all__ = ["fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path", "heading_and_tilt",
-           "foot_joints", "CONTACT_MISS_CM", "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
+__all__ = ["fill_root_gaps", "fill_root", "fill_pelvis", "fill_pelvis_path", "fill_root_rotation", "contact_path",
+           "heading_and_tilt", "foot_joints", "CONTACT_MISS_CM", "CHECK_STRETCHES", "TILT_RIDGE", "FOOT_ROLES"]
 
 #: Centimetres: the foot contacts' path across a position gap is kept where it lands this close to the measured
 #: frame after the gap (bent onto it), else the cubic spline fills the gap (the feet were not planted).
@@ -399,3 +403,18 @@ def fill_pelvis(motion: Motion, body: Motion) -> tuple[Motion, dict]:
     trans = np.array(body.translations)
     trans[:, j] = np.where(np.isnan(off_in), local, off_in)
     return dataclasses.replace(body, translations=trans), {("position", s, e): c for (s, e), c in chosen.items()}
+
+
+def fill_root_gaps(motion: Motion, body: Motion) -> tuple[Motion, dict]:
+    """``body`` (``motion`` with its other joints filled, by the networks or by the cubic spline where none serves
+    the rig, and its other animated offsets bridged) with ``motion``'s lost root filled from the body
+    (:func:`fill_root`) and a game rig's lost pelvis path too (:func:`fill_pelvis`): the one place every fill of a
+    take (:func:`mocapkit.cleaning.deep.fill_or_fallback`) takes the root from, whatever fills the rest. Every
+    measured root or pelvis number of ``motion`` is bit-identical. Returns ``(motion, how)``: ``how`` maps
+    ``"root"`` and ``"pelvis"`` to what :func:`fill_root` and :func:`fill_pelvis` say filled each gap."""
+    how: dict = {"root": {}, "pelvis": {}}
+    if motion.missing()[:, 0].any():
+        body, how["root"] = fill_root(motion, body)
+    if motion.translations is not None:
+        body, how["pelvis"] = fill_pelvis(motion, body)
+    return body, how

@@ -244,9 +244,9 @@ def fill(
         pelvis = pelvis_index(gappy.skeleton)
         hips = int(lost[:, pelvis].sum()) if pelvis else 0
         moved = int(lost[:, 1:].sum()) - hips
-    if root and method != deep.FALLBACK_FILL:  # cleaning.root_gaps: the feet's contacts, else a spline
+    if root:  # cleaning.root_gaps.fill_root_gaps, whatever fills the rest: the feet's contacts, else a spline
         line += f" (the {root} missing root position(s) among them from the feet's contacts or a cubic spline)"
-    if hips and method != deep.FALLBACK_FILL:  # cleaning.root_gaps.fill_pelvis
+    if hips:  # cleaning.root_gaps.fill_pelvis
         line += (f" (the {hips} missing {gappy.skeleton.joint_names[pelvis]} position(s) among them from the feet's"
                  " contacts, a cubic spline or the line between the gap's ends, whichever refills the take's"
                  " measured stretches best)")

@@ -25,7 +25,7 @@ from ...words import frame_span
 from ...io import atomic_write
 from ...motion import Motion
 from ..measured import measured_rotations
-from ..root_gaps import fill_pelvis, fill_root
+from ..root_gaps import fill_root_gaps
 from .channels import ChannelLayout, channel_joints, lerp_fill, with_measured
 from .doubt import doubtful_runs
 from .layouts import SHIPPED, SHIPPED_FOR_RIG, pick_served, shipped_names
@@ -731,15 +731,13 @@ def fill_gaps(motion: Motion, model=None, denoiser=None, smooth: bool = True, me
     Returns a Motion with the input's skeleton, frames and root trajectory;
     every observed (frame, joint) rotation is bit-identical to the input's.
     A missing root rotation or position is not the networks' to fill: it is
-    filled from the body (:func:`mocapkit.cleaning.root_gaps.fill_root`: the
+    filled from the body (:func:`mocapkit.cleaning.root_gaps.fill_root_gaps`: the
     feet's contacts carry the position, the heading's spline and the body's
-    tilt the rotation). On a game rig whose pelvis carries the body's path
-    in its animated offset (``motion.translations``, (F, J, 3): Bandai
-    Namco's Hips over a still ``joint_Root``) a missing pelvis offset is
-    filled from the body too (:func:`mocapkit.cleaning.root_gaps.fill_pelvis`:
-    the feet's contacts, a cubic spline or the line); any other joint's
-    missing animated offset is interpolated linearly (on that rig they are
-    constant through a take, so the line holds them).
+    tilt the rotation; on a game rig whose pelvis carries the body's path
+    in its animated offset, ``motion.translations`` (F, J, 3): Bandai
+    Namco's Hips over a still ``joint_Root``, a missing pelvis offset too);
+    any other joint's missing animated offset is interpolated linearly (on that
+    rig they are constant through a take, so the line holds them).
     ``model`` / ``denoiser``: models or files, None for the shipped pair that serves the take's rig (the Bandai
     Namco one, CC BY-NC, on that rig): a model whose licence restricts use is said by a
     :class:`~mocapkit.errors.LicenceWarning`, as the CLI says it.
@@ -787,16 +785,12 @@ def _fill_gaps(motion: Motion, model, denoiser, smooth: bool, method: str) -> tu
             seen = np.flatnonzero(~missing[:, j])
             rot[missing[:, j], j] = motion.rotations[seen[0], j] if len(seen) else R.identity()
     res = dataclasses.replace(res, rotations=rot)
-    if missing[:, 0].any():  # the root's own gaps: from the feet's contacts and the body (root_gaps), measured kept
-        res = fill_root(motion, res)[0]
     tr = motion.translations
     if tr is not None and np.isnan(tr).any():  # the animated offsets' gaps, as the root position's (observed kept)
         F, J = tr.shape[:2]
         line = lerp_fill(tr.reshape(F, 3 * J)).reshape(F, J, 3)
         res = dataclasses.replace(res, translations=np.where(np.isnan(tr), line, tr))
-    if tr is not None:  # a game rig's pelvis (its path in its animated offset): from the body, as a pelvis root's
-        res = fill_pelvis(motion, res)[0]
-    return res, doubts
+    return fill_root_gaps(motion, res)[0], doubts  # the root's and a game rig's pelvis' gaps: from the body
 
 
 #: the doubtful runs :func:`doubt_note` names before it counts the rest
@@ -888,7 +882,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
     its gap prior, ``method`` as :func:`fill_channels`; with the EBF when
     ``smooth`` and the EBF serves it too, :func:`ebf_takes_part`); where it does not, or a
     channel the network needs is never observed, the cubic interpolating
-    spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap.
+    spline of :func:`mocapkit.cleaning.gapfill.fill_motion` fills every gap but the root's (and a game rig's
+    pelvis path), which is filled from the body either way (:func:`mocapkit.cleaning.root_gaps.fill_root_gaps`).
     The fallback is for the shipped models chosen by the take's rig (``model`` None): a model the caller named
     (``model`` given) that cannot serve the take raises :func:`refusal`'s SkeletonError instead.
     Returns ``(motion, method, note)``: ``note`` is "" with the networks
@@ -938,7 +933,8 @@ def fill_or_fallback(motion: Motion, model=None, denoiser=None, smooth: bool = T
         why = sv
     note = _fallback_note(FALLBACK_FILL, "ebd", label, why)
     own = passed_over("ebd", motion) if model is None else ""
-    return fill_motion(motion, "cubic"), FALLBACK_FILL, f"{own}; {note}" if own else note
+    out = fill_root_gaps(motion, fill_motion(motion, "cubic"))[0]  # the root as the networks' fill takes it
+    return out, FALLBACK_FILL, f"{own}; {note}" if own else note
 
 
 def denoise_or_fallback(motion: Motion, model=None, cells: np.ndarray | None = None, label: str = "shipped",
