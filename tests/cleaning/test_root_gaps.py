@@ -210,8 +210,8 @@ def test_a_root_lost_whole_is_not_placed_by_the_feet():
 
 
 def test_a_rig_without_toes_is_placed_by_its_ankles():
-    """HDM05 bk sneak 004 on the Daz release's rig (no toes): its root position lost for 1 s (frames 77-196) was the
-    cubic spline's, 2.5 cm RMS off, the feet not found; the ankles' contacts carry it within 1 cm."""
+    """HDM05 bk sneak 004 on the Daz release's rig (no toes), its root position lost for 1 s (frames 77-196): the
+    cubic spline is 2.5 cm RMS off; the ankles' contacts carry it within 1 cm."""
     take = daz_spelling(motionbuilder_spelling(clip("HDM_bk_sneak2StepsLStart_004_120.amc")))
     assert [take.skeleton.joint_names[j] for j in foot_joints(take.skeleton)] == ["lFoot", "rFoot"]
     out, how = fill_root(without(take, 77, 197, "position"))
@@ -223,7 +223,7 @@ def test_a_rig_without_toes_is_placed_by_its_ankles():
 
 def test_a_rig_no_network_serves_has_its_root_filled_from_the_body_too():
     """CMU 131_01 on a rig without clavicles (no shipped network serves it: the cubic spline fills its joints) with
-    its root position lost for 1.5 s (frames 300-479): the spline put the root 28.9 cm RMS off; the feet's
+    its root position lost for 1.5 s (frames 300-479): the spline is 28.9 cm RMS off; the feet's
     contacts, as where the networks fill the body, carry it within 10 cm. Every measured number is the take's."""
     take = respelled(clip("131_01.bvh"), {}, drop=("LeftCollar", "RightCollar"))
     gone = without(take, 300, 480, "position")

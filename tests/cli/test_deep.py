@@ -982,9 +982,8 @@ def test_fill_fills_a_pelvis_root_written_nan_from_the_body(tmp_path, channels, 
 
 def test_fill_fills_a_lost_root_from_the_body_on_a_rig_no_network_serves(tmp_path):
     """CMU 131_01 on a rig without clavicles (the networks do not serve it: the cubic spline fills its joints), its
-    root position channels written ``nan`` for 1.5 s (frames 300-479): `fill` gave the cubic spline, 28.9 cm RMS
-    off, and said nothing of the root; the feet's contacts now carry it within 10 cm, as where the networks serve
-    the rig, and the output line says so."""
+    root position channels written ``nan`` for 1.5 s (frames 300-479): the cubic spline is 28.9 cm RMS off; the
+    feet's contacts carry it within 10 cm, as where the networks serve the rig, and the output line says so."""
     from mocapkit.joints import unit_scale_cm
     from tests.shared import respelled
 
