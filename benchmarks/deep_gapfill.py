@@ -34,6 +34,14 @@ Fills, each followed by the denoising a user would run on the completed take:
   splines over the Vicon Nexus window (``cleaning.gapfill``), then the 58 ms Gaussian;
 * ``cubic`` / ``quintic`` / ``lerp``: the fills alone, the noisy observed samples
   left as they are (what a gap fill in Nexus or the ``gapfill`` package returns);
+* ``words+ebf``: the shipped fill (``prior``'s, ``smooth=True``), then every gap event of at least 0.5 s
+  refilled from the take's own motion words (Aristidou et al. 2018, section 4: each gap frame's word of
+  the observed channels, the median of its 4 nearest words' missing channels among the take's frames where
+  they are observed, offset to meet the gap's ends; :mod:`_self_similarity`), then the EBF on the whole take;
+  ``prior_words+ebf`` the same words blended with the prior's fill by how near they are
+  (``exp(-(d / 0.5)^2)``, ``d`` the words' RMS distance in standard deviations): self-similarity where the
+  take repeats, the prior's conditional mean where it does not. ``cpu_s`` gives the CPU seconds per
+  gapped take of the shipped fill and of the words step;
 * ``knn+gauss`` (long gaps only): a database lookup in the spirit of Krueger et al. 2010,
   to see how much the other channels say about the missing one: each gap frame's other
   channels (58 ms Gaussian of the noisy take) are looked up among the training clips'
@@ -57,6 +65,7 @@ import numpy as np
 import _deep  # noqa: F401
 import _harness as harness
 from _deep import gaussian, test_clips, wrapped_rms
+from _self_similarity import self_similar_fill
 
 import mocapkit  # noqa: E402
 from mocapkit import corrupt  # noqa: E402
@@ -64,7 +73,7 @@ from mocapkit.cleaning import deep, gapfill  # noqa: E402
 from mocapkit.cleaning.deep.channels import encode  # noqa: E402
 
 METHODS = ("lerp+gauss", "lerp+ebf", "ebd+ebf", "prior+ebf", "prior_gauss_read+ebf", "cubic+gauss", "quintic+gauss",
-           "lerp", "cubic", "quintic", "ebd", "prior")
+           "lerp", "cubic", "quintic", "ebd", "prior", "words+ebf", "prior_words+ebf")
 LONG_METHODS = METHODS + ("knn+gauss",)
 SIGMA = 0.058
 KNN = 8
@@ -98,14 +107,25 @@ class PoseDatabase:
         return pred + (1.0 - w) * (smooth[s - 1, c] - pred[0]) + w * (smooth[e, c] - pred[-1])
 
 
-def run_methods(x_gapped, ctx, fps, ebf, ebd) -> dict:
-    """Every method's completed (F, C) channels for one gapped noisy take."""
+def run_methods(x_gapped, ctx, fps, ebf, ebd, cpu: dict | None = None) -> dict:
+    """Every method's completed (F, C) channels for one gapped noisy take; ``cpu``: CPU seconds of the shipped fill
+    (``prior``) and of the words step (``words``) added to it."""
     lerp = deep.lerp_fill(x_gapped)
     cubic = gapfill.fill_channels(x_gapped, "cubic", fps)
     quintic = gapfill.fill_channels(x_gapped, "quintic", fps)
     ebd_only = deep.fill_channels(x_gapped, ctx, ebd, smooth=False, fps=fps, method="ebd")
     prior_gauss = deep.fill_channels(x_gapped, ctx, ebd, smooth=False, fps=fps, method="prior")
+    t0 = time.process_time()
     prior_fill = deep.fill_channels(x_gapped, ctx, ebd, ebf, fps=fps, smooth=True, method="prior")
+    t1 = time.process_time()
+    miss = np.isnan(x_gapped)
+    blended = self_similar_fill(prior_fill, miss, fps)
+    t2 = time.process_time()
+    words = self_similar_fill(prior_fill, miss, fps, d0=None)
+    if cpu is not None:
+        cpu["prior"] = cpu.get("prior", 0.0) + t1 - t0
+        cpu["words"] = cpu.get("words", 0.0) + t2 - t1
+        cpu["fills"] = cpu.get("fills", 0) + 1
     return {
         "lerp": lerp, "cubic": cubic, "quintic": quintic, "ebd": ebd_only, "prior": prior_gauss,
         "lerp+gauss": gaussian(lerp, SIGMA, fps),
@@ -113,6 +133,8 @@ def run_methods(x_gapped, ctx, fps, ebf, ebd) -> dict:
         "ebd+ebf": deep.denoise_channels(ebd_only, ctx, ebf, fps=fps),
         "prior+ebf": deep.denoise_channels(prior_fill, ctx, ebf, fps=fps),
         "prior_gauss_read+ebf": deep.denoise_channels(prior_gauss, ctx, ebf, fps=fps),
+        "words+ebf": deep.denoise_channels(words, ctx, ebf, fps=fps),
+        "prior_words+ebf": deep.denoise_channels(blended, ctx, ebf, fps=fps),
         "cubic+gauss": gaussian(cubic, SIGMA, fps),
         "quintic+gauss": gaussian(quintic, SIGMA, fps),
     }
@@ -136,7 +158,9 @@ def main(argv=None) -> None:
     t0 = time.perf_counter()
     from tqdm import tqdm
 
+    cpu: dict = {}
     for path in tqdm(clips, desc="clips", disable=a.json):
+        cpu[path.name] = {}
         clean = mocapkit.load(path)
         fps = clean.fps
         y, _ = encode(clean, ebf.layout)
@@ -149,7 +173,7 @@ def main(argv=None) -> None:
             miss = np.isnan(x)
             if miss.any() and not miss.all(axis=0).any():
                 missing_share.append(float(miss.mean()))
-                for m, out in run_methods(x, ctx, fps, ebf, ebd).items():
+                for m, out in run_methods(x, ctx, fps, ebf, ebd, cpu[path.name]).items():
                     res["ordinary"][m]["all"].append(wrapped_rms(out, y))
                     res["ordinary"][m]["gap"].append(wrapped_rms(out, y, miss))
             # long: one channel at a time
@@ -167,7 +191,7 @@ def main(argv=None) -> None:
                 xg[s : s + n, c] = np.nan
                 mask = np.isnan(xg)
                 long_lengths.append(n / fps)
-                outs = run_methods(xg, ctx, fps, ebf, ebd)
+                outs = run_methods(xg, ctx, fps, ebf, ebd, cpu[path.name])
                 looked_up = outs["lerp+gauss"].copy()
                 looked_up[s : s + n, c] = database.fill(outs["lerp+gauss"], int(c), s, s + n)
                 outs["knn+gauss"] = gaussian(np.where(mask, looked_up, xg), SIGMA, fps)
@@ -183,7 +207,7 @@ def main(argv=None) -> None:
                 xg = xn.copy()
                 xg[s : s + n, joint_of == joint_of[c]] = np.nan
                 mask = np.isnan(xg)
-                for m, out in run_methods(xg, ctx, fps, ebf, ebd).items():
+                for m, out in run_methods(xg, ctx, fps, ebf, ebd, cpu[path.name]).items():
                     res["long_joint"][m]["all"].append(wrapped_rms(out, y))
                     res["long_joint"][m]["gap"].append(wrapped_rms(out, y, mask))
     seconds = time.perf_counter() - t0
@@ -196,6 +220,8 @@ def main(argv=None) -> None:
             "runs": len(res[s]["ebd+ebf"]["gap"]), "mean": table,
             "ratio_gap_prior_ebf_vs_lerp_gauss": round(table["prior+ebf"]["gap"] / base, 3),
             "ratio_gap_ebd_ebf_vs_lerp_gauss": round(table["ebd+ebf"]["gap"] / base, 3),
+            "ratio_gap_prior_words_ebf_vs_lerp_gauss": round(table["prior_words+ebf"]["gap"] / base, 3),
+            "ratio_gap_words_ebf_vs_lerp_gauss": round(table["words+ebf"]["gap"] / base, 3),
             "ratio_all_ebd_ebf_vs_lerp_gauss": round(table["ebd+ebf"]["all"] / table["lerp+gauss"]["all"], 3),
             "ratio_gap_ebd_ebf_vs_best_spline": round(
                 table["ebd+ebf"]["gap"] / min(table["cubic+gauss"]["gap"], table["quintic+gauss"]["gap"]), 3),
@@ -206,6 +232,9 @@ def main(argv=None) -> None:
     out["settings"]["long"]["knn_database"] = f"{database.clips} training clips, {len(database.frames)} frames"
     out["settings"]["long"]["gap_seconds_mean"] = round(float(np.mean(long_lengths)), 2)
     out["settings"]["long"]["gap_seconds_range"] = [round(min(long_lengths), 2), round(max(long_lengths), 2)]
+    fills = sum(c.get("fills", 0) for c in cpu.values())
+    out["cpu_s"] = {k: round(sum(c.get(k, 0.0) for c in cpu.values()) / max(fills, 1), 4) for k in ("prior", "words")}
+    out["cpu_s"]["per"] = f"gapped take ({fills} fills): the shipped fill, and the words step after it"
     out.update(baseline="lerp+gauss: linear fill, then a 58 ms Gaussian, same gaps, same run",
                seconds=round(seconds, 1))
     if not a.json:
@@ -219,7 +248,10 @@ def main(argv=None) -> None:
     for key, setting, method in (("long_gap_rms_deg", "long", "prior+ebf"), ("long_joint_gap_rms_deg", "long_joint", "prior+ebf"),
                                  ("ordinary_gap_rms_deg", "ordinary", "prior+ebf"), ("long_ebd_gap_rms_deg", "long", "ebd+ebf"),
                                  ("long_joint_ebd_gap_rms_deg", "long_joint", "ebd+ebf"),
-                                 ("ordinary_ebd_gap_rms_deg", "ordinary", "ebd+ebf"), ("long_knn_gap_rms_deg", "long", "knn+gauss")):
+                                 ("ordinary_ebd_gap_rms_deg", "ordinary", "ebd+ebf"), ("long_knn_gap_rms_deg", "long", "knn+gauss"),
+                                 ("long_words_gap_rms_deg", "long", "prior_words+ebf"),
+                                 ("long_joint_words_gap_rms_deg", "long_joint", "prior_words+ebf"),
+                                 ("ordinary_words_gap_rms_deg", "ordinary", "prior_words+ebf")):
         figures[key] = means[setting][method]["gap"]
         baselines[key] = means[setting]["lerp+gauss"]["gap"]
     harness.emit(
