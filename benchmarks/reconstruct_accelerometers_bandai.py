@@ -51,10 +51,14 @@ OpenBLAS is limited to one thread (set before numpy loads), as in
 ``--diagnose`` follows retrieval and synthesis frame by frame on the
 validation style (:func:`diagnose`).
 
+``--parts`` splits the gap between the output and the oracle on the
+held-out takes of the test run by body part, speed and content
+(:func:`parts`; a diagnosis: the parameters stay those of the validation style).
+
 ``--mirror`` adds every take's left/right mirror image to the knowledge base
 (560,000 frames, the thesis' size); ``--cache`` puts the database elsewhere.
 
-    python benchmarks/reconstruct_accelerometers_bandai.py --json [--quick] [--takes N] [--frames F] [--reuse] [--mirror] [--cache DIR]
+    python benchmarks/reconstruct_accelerometers_bandai.py --json [--quick] [--takes N] [--frames F] [--reuse] [--mirror] [--cache DIR] [--validate | --diagnose | --parts]
 """
 
 from __future__ import annotations
@@ -356,6 +360,104 @@ def diagnose(args, train) -> None:
                           "per_config": details})
 
 
+#: Body parts of the Bandai Namco body for :func:`parts` (joint-name prefixes; the pelvis is the origin).
+PARTS = {"trunk and head": ("Spine", "Chest", "Neck", "Head"), "shoulders and upper arms": ("Shoulder", "UpperArm"),
+         "forearms and hands": ("LowerArm", "Hand"), "thighs and shins": ("UpperLeg", "LowerLeg"), "feet and toes": ("Foot", "Toes")}
+#: Bins of the true body's speed for :func:`parts`: RMS over the joints of their root-frame speed, cm/s.
+SPEEDS = ((0.0, 20.0), (20.0, 60.0), (60.0, np.inf))
+
+
+def parts(args, train, held) -> None:
+    """Where the gap between the output and the database oracle lies, on the held-out takes of the test run.
+
+    A diagnosis, never a choice of parameters (those come from the validation
+    style). Per frame, in the root frame (pelvis at the origin, heading
+    removed, tilt kept; cm), for :data:`VALIDATED`: each body joint's
+    distance to the truth for the output and for the oracle (the database
+    pose closest to the true pose, posed on the test skeleton); per body
+    part (:data:`PARTS`) their RMS and the part's share of the squared gap
+    (sum over the part of output^2 - oracle^2, over the whole body's); the
+    per-frame RMS by the true body's speed (:data:`SPEEDS`) and by the takes'
+    content; the angle between the vertical as each sensor sees it on the
+    output and on the truth (its tilt: what a still sensor's reading gives),
+    by speed; and, among the regression's candidates (the graph's
+    ``regression_n`` cheapest nodes), the cheapest one's error, the best one's
+    and how many lie closer to the truth than the output.
+    """
+    db, kb, info = build(train, True, args.cache)
+    picks = [held[int(i)] for i in np.unique(np.linspace(0, len(held) - 1, args.takes).round().astype(int))]
+    S = len(kb.sensors)
+    params = {**A.DEFAULTS, **VALIDATED}
+    E, EO, speed, content, cheapest, best, closer, tilt = [], [], [], [], [], [], [], []
+    names = None
+    for t in picks:
+        m = mocapkit.load(t.path)
+        m = m[: min(args.frames, len(m))]
+        rd = virtual_accelerometers(m)
+        body = body_skeleton(m.skeleton)
+        rig = Rig(body, kb.sensors)
+        B = rig.J
+        names = list(body.joint_names)[1:B]
+        P = np.empty((kb.num_frames, B - 1, 3), np.float32)  # every database pose on the test skeleton
+        for a in range(0, kb.num_frames, 20000):
+            P[a:a + 20000] = rig.points(np.asarray(kb.poses[a:a + 20000]))[0][:, :B - 1]
+        Pf = P.reshape(len(P), -1)
+        pn = np.einsum("ij,ij->i", Pf, Pf)
+        T, T_rot = rig.points(clip_values(m, kb.sensors, kb.up)[:, 3 * S:3 * S + 3 * B])
+        T = T[:, :B - 1]
+        up = np.broadcast_to(kb.up, (S, 3))
+        Tf = T.reshape(len(T), -1).astype(np.float32)
+        oracle = np.concatenate([np.argmin(pn[None] - 2.0 * (Tf[a:a + 32] @ Pf.T), axis=1) for a in range(0, len(T), 32)])
+        v = np.zeros(len(m))
+        v[1:] = np.sqrt(np.mean(np.sum(np.diff(T, axis=0) ** 2, axis=-1), axis=1)) * FPS
+        rec = A.AccelerometerReconstructor(db, FPS, skeleton=m.skeleton, **VALIDATED)
+        for f in range(len(m)):
+            rec.push(rd[f])
+            if rec.last_info.get("held", True):
+                continue
+            out, out_rot = (x[0] for x in rig.points(rec._p[None]))
+            out = out[:B - 1]
+            g_out = R.quaternion_rotate(R.quaternion_conjugate(out_rot), up)  # the vertical in each sensor's frame
+            g_true = R.quaternion_rotate(R.quaternion_conjugate(T_rot[f]), up)
+            tilt.append(np.degrees(np.arccos(np.clip(np.sum(g_out * g_true, axis=1), -1.0, 1.0))))
+            E.append(np.sqrt(np.sum((out - T[f]) ** 2, axis=-1)))
+            EO.append(np.sqrt(np.sum((P[oracle[f]] - T[f]) ** 2, axis=-1)))
+            nodes, costs = rec.olng.current_nodes, rec.olng.costs
+            ok = np.flatnonzero((nodes >= 0) & np.isfinite(costs))
+            cand = nodes[ok[np.lexsort((nodes[ok], costs[ok]))][:params["regression_n"]]]
+            ec = _frame_errors(P[cand], T[f])
+            cheapest.append(ec[0])
+            best.append(ec.min())
+            closer.append(int(np.sum(ec < np.sqrt(np.mean(E[-1] ** 2)))))
+            speed.append(v[f])
+            content.append(t.content)
+        log(f"{t.path.name}: done")
+    E, EO, speed = np.stack(E), np.stack(EO), np.asarray(speed)
+    out_f, orc_f = np.sqrt(np.mean(E ** 2, axis=1)), np.sqrt(np.mean(EO ** 2, axis=1))
+    gap = float(np.mean(np.sum(E ** 2 - EO ** 2, axis=1)))
+    by_part = {}
+    for part, prefixes in PARTS.items():
+        js = [j for j, n in enumerate(names) if n.startswith(prefixes)]
+        by_part[part] = {"output_rms": float(np.sqrt(np.mean(E[:, js] ** 2))), "oracle_rms": float(np.sqrt(np.mean(EO[:, js] ** 2))),
+                         "share_of_gap": float(np.mean(np.sum(E[:, js] ** 2 - EO[:, js] ** 2, axis=1)) / gap)}
+    tilt = np.stack(tilt)
+    by_speed = {f"{lo:g}-{hi:g} cm/s": {"frames": float(np.mean(sel)), "output": float(out_f[sel].mean()), "oracle": float(orc_f[sel].mean()),
+                                        "sensor_tilt_deg_median": dict(zip((x.name for x in kb.sensors), np.median(tilt[sel], axis=0).tolist()))}
+                for lo, hi in SPEEDS for sel in [(speed >= lo) & (speed < hi)] if sel.any()}
+    by_content = {c: {"frames": int(np.sum(sel)), "output": float(out_f[sel].mean()), "oracle": float(orc_f[sel].mean())}
+                  for c in sorted(set(content)) for sel in [np.asarray(content) == c]}
+    figures = {"output": float(out_f.mean()), "oracle": float(orc_f.mean()), "cheapest_candidate": float(np.mean(cheapest)),
+               "best_candidate": float(np.mean(best)), "candidates_closer_than_output_median": float(np.median(closer)),
+               **{f"{p} share_of_gap": d["share_of_gap"] for p, d in by_part.items()}}
+    log(f"parts: {figures}")
+    harness.emit("reconstruct_accelerometers_bandai_parts", args, figures=figures,
+                 details={"takes": [t.path.name for t in picks], "frames_per_take": args.frames, "frames": len(E),
+                          "params": params, "units": "cm, per-frame RMS over the body's joints, root frame (heading removed, tilt kept)",
+                          "per_joint": {n: {"output_rms": float(np.sqrt(np.mean(E[:, j] ** 2))), "oracle_rms": float(np.sqrt(np.mean(EO[:, j] ** 2)))}
+                                        for j, n in enumerate(names)},
+                          "per_part": by_part, "per_speed": by_speed, "per_content": by_content})
+
+
 def main():
     ap = harness.parser(__doc__)
     ap.add_argument("--quick", action="store_true", help="4 held-out takes of 120 frames")
@@ -366,6 +468,8 @@ def main():
                     help="the parameter sweep on validation style dataset-2 exhausted instead (held out of its knowledge base too)")
     ap.add_argument("--diagnose", action="store_true",
                     help="per-frame diagnosis of retrieval and synthesis on the validation style instead")
+    ap.add_argument("--parts", action="store_true",
+                    help="where the gap to the oracle lies on the held-out takes (per body part, speed, content) instead")
     ap.add_argument("--cache", type=Path, default=CACHE, help=f"folder for the database and knowledge base (default {CACHE})")
     ap.add_argument("--mirror", action="store_true", help="the knowledge base holds every take and its left/right mirror image")
     ap.add_argument("-k", type=int, default=None, help="neighbours per sample (default: mocapkit's default_k)")
@@ -382,6 +486,9 @@ def main():
         return
     if args.diagnose:
         diagnose(args, train)
+        return
+    if args.parts:
+        parts(args, train, held)
         return
     db, kb, info = build(train, args.reuse, args.cache / "mirror" if args.mirror else args.cache, args.mirror)
     log(f"built: {info}")
