@@ -100,7 +100,12 @@ two joints above it, 90 deg or more in one 1/120 s frame over the run's span):
   wrists and hands, CMU 01_01's toes and lambada's hand. At 20 fps the same throw (13-24, 12 cells),
   dg ``grabHighR`` 013's right foot (34-42, 9) and CMU backflip's root and wrists at the flip (11).
   They are the two-step flick that the 24-20 fps share of the smooth-turn rule keeps a break (an error's
-  step): no rule has been found that lets them through and still finds the injected errors.
+  step), and the joins read them as an error's too: the cubic path the joins imply
+  (:func:`mocapkit.cleaning.ssa.guard.joined_path`) lies nearer the repair than the input on kickLFront1Reps
+  003's foot (7.3 against 38.6 deg on average over the run) and on mm kickLFront1Reps 022's wrist (2.1
+  against 21.3), as on an injected spike, and the repaired throw joins the take more smoothly than the input
+  (15.2 against 20.6 deg/frame^2), so neither :mod:`~mocapkit.cleaning.ssa.guard` nor a path test gives them
+  back without giving back the injected errors' repairs.
 
 Per collection: the share of changed cells, the worst take and its share, and
 the cells each step changed (fill, repair, denoise). Targets: at most 0.1 % per
