@@ -94,8 +94,8 @@ two joints above it, 90 deg or more in one 1/120 s frame over the run's span):
   (the flick of ``mocapkit.cleaning.ssa.smooth_turns`` that falls between two frames), none above 1 % of its
   take: at 24 fps the widest is bd ``throwBasketball`` 002's right hand (frames 15-29 and 32, 16 cells,
   0.85 %, moved up to 81 deg): the 120 fps hand turns at most 6.7 deg a frame, the 24 fps one 10.8, 26.8,
-  28.5 and 8.8 deg from frame 27 to 31 as the ball leaves it, a break no word of the take or context within
-  8 deg judges, and the medoid of the nearest words replaces it; bd ``kickLFront1Reps`` 003's left foot (a
+  28.5 and 8.8 deg from frame 27 to 31 as the ball leaves it, a break, and the medoid of the nearest words
+  replaces it (none of the take's 11 words has a neighbour within 8 deg in some joint group); bd ``kickLFront1Reps`` 003's left foot (a
   spike, frames 14-16, 49.7 deg: at 120 fps 15.9 deg a frame at most), and one or two cells of the HDM05 mm
   wrists and hands, CMU 01_01's toes and lambada's hand. At 20 fps the same throw (13-24, 12 cells),
   dg ``grabHighR`` 013's right foot (34-42, 9) and CMU backflip's root and wrists at the flip (11).
