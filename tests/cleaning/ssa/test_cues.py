@@ -802,9 +802,31 @@ def test_an_event_of_two_steps_between_two_swaps_is_their_end_and_start():
     assert cues.swap_reading([10, 20], [], 30) == [(10, 20)]
 
 
+def test_an_event_of_three_steps_is_a_one_frame_swap_beside_another():
+    """An event holding three swap steps, 31, 32 and 33, after a step at 18: read whole, its first and last steps
+    swap frames 32-33 and leave 18 and the middle step over; split, every step pairs, 19-31 and 33."""
+    assert cues.swap_reading([18], [(31, 32, 33)], 30) == [(18, 31), (32, 33)]
+    assert cues.swap_reading([], [(31, 32, 33)], 30) == [(31, 33)]
+
+
+def test_a_tie_of_two_readings_goes_to_the_split_one_where_a_hidden_step_pairs_its_step_left_over():
+    """Steps at 3 and an event of two, 17 and 18: either reading leaves one step over (3, or 18). A swap step the
+    joints' own level hides, at 32, pairs with the split reading's 18 (19-32 beside 4-17), and the whole reading's
+    3 pairs with it only around the whole swap (4-32 exchanged, 18 exchanged twice: the same swaps): the split
+    reading is taken, its 18 left to the exchange that proves the hidden step. Without it, or with it too far to
+    pair, the whole swap stands."""
+    assert cues.swap_reading([3], [(17, 18)], 30, [32]) == [(3, 17)]
+    assert cues.swap_reading([3], [(17, 18)], 30) == [(17, 18)]
+    assert cues.swap_reading([3], [(17, 18)], 30, [60]) == [(17, 18)]
+
+
 @pytest.mark.parametrize("name, runs", [
     ("dataset-1_bow_active_001.bvh", [(19, 31), (33, 46)]),  # one clean frame between (read whole: 19-46)
     ("dataset-1_bye_giant_001.bvh", [(5, 17), (22, 35)]),  # four clean frames between (read whole: a swap, 18-21)
+    # one clean frame between, the second swap's exit under the running forearms' own level (read whole: frames 0-3
+    # and 18, every swapped cell left)
+    ("dataset-2_run_active_049.bvh", [(4, 17), (19, 32)]),
+    ("dataset-1_bow_active_001.bvh", [(19, 31), (33, 33)]),  # a one-frame swap beside another (read whole: 32-33)
 ])
 def test_two_forearm_swaps_with_a_clean_stretch_between_are_found_each_on_its_own(name, runs):
     """Bundled Bandai Namco takes (30 fps) with their forearms swapped twice, each taking its partner's mirrored

@@ -15,6 +15,7 @@ import numpy as np
 from ... import rotations as R
 from ...motion import Motion
 from ..ik import contact_segments, segment_frames
+from .edge_swaps import swap_step_events
 from .events import event_bounds, pair_events
 from .freeze_bounds import bounded_breaks
 from .freezes import recurring
@@ -243,45 +244,63 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
         first, last = pair_events(breaks, j, p, held)
         if not len(first):
             continue
-        starts, whole = [int(f) for f in first], []
+        starts, whole, hidden = [int(f) for f in first], [], []
         if rotations is not None and mirrored is not None:
             whole = [_whole_swap(rotations, mirrored, int(f), int(l), j, p) for f, l in zip(first, last)]
             starts = [f for f, w in zip(starts, whole) if w is None
                       and _swap_step(rotations, mirrored, f, j) and _swap_step(rotations, mirrored, f, p)]
-        for a, b in swap_reading(starts, [w for w in whole if w is not None], longest):
+            if any(w is not None for w in whole):  # the steps the own level hides judge a tie of two readings
+                hidden = swap_step_events(rotations, mirrored, residual_breaks(resid, jump_deg), j, p)[1]
+                hidden = [h for h, e in zip(*hidden) if not ((first <= e + 2) & (last >= h - 1)).any()]
+        for a, b in swap_reading(starts, [w for w in whole if w is not None], longest, hidden):
             out[a + 1 : b + 1, j] = out[a + 1 : b + 1, p] = True  # a step from f to f + 1 breaks at both
     return out
 
 
-def swap_reading(starts, whole, longest: int) -> list[tuple[int, int]]:
+def swap_reading(starts, whole, longest: int, hidden=()) -> list[tuple[int, int]]:
     """The swaps ``(a, b)`` (steps ``a -> a + 1`` into the swap and ``b -> b + 1`` out of it) that a pair's break
-    events read as: ``starts`` the first frames of the events of one swap step each, ``whole`` the ``(a, b)`` steps
-    of the events that hold two (:func:`_whole_swap`), ``longest`` the most frames a swap spans.
+    events read as: ``starts`` the first frames of the events of one swap step each, ``whole`` the steps ``(a, ...,
+    b)`` of the events that hold two or more (:func:`_whole_swap`), ``longest`` the most frames a swap spans.
 
     An event of two steps is a whole short swap, or the clean frames between two swaps: the first swap's step out
     and the next one's step in (a label swap is undone by the next step onto the partner's mirror image). The
     second reading splits those events into their steps and pairs every step in time order
     (:func:`_paired_events`); it is taken where it leaves fewer steps unpaired than the first (the events of one
-    step paired in time order beside the whole swaps), or as many while a whole swap lies inside a swap the first
-    pairs (its frames exchanged twice, so back as they came). Bandai Namco call_normal_001 with
+    step paired in time order beside the whole swaps, an event's steps between its first and last unpaired), or
+    as many while a whole swap lies inside a swap the first pairs (its frames exchanged twice, so back as they
+    came), or, the two still even, where it wins so with the ``hidden`` steps paired too: the pair's swap steps
+    the joints' own level hides (:func:`~mocapkit.cleaning.ssa.edge_swaps.swap_step_events` outside every event
+    of ``starts`` and ``whole``), which the exchange of the swap they bound proves later
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.joined_swaps`). Bandai Namco call_normal_001 with
     ``corrupt.real_errors(kinds=("swap",), seed=0)``: the feet swapped over frames 43-57 and 62-75 break at 42,
     57, 61 and 75, the middle two one event; read whole, that event is a swap over the clean frames 58-61 and
-    neither real swap is found.
+    neither real swap is found. An event of three steps is a one-frame swap beside another swap: read whole, its
+    first and last steps swap the frames between, one of them clean.
     """
-    whole = [(int(a), int(b)) for a, b in whole]
+    whole = [tuple(int(a) for a in w) for w in whole]
     pairs = _paired_events(starts, longest)
     if not whole:
         return pairs
-    steps = sorted(list(starts) + [f for w in whole for f in w])
-    split = _paired_events(steps, longest)
-    left, left_split = len(starts) - 2 * len(pairs), len(steps) - 2 * len(split)
-    nested = any(a <= c and d <= b for a, b in pairs for c, d in whole)
-    return split if left_split < left or left_split == left and nested else pairs + whole
+    ends = [(w[0], w[-1]) for w in whole]
+    split = _paired_events(sorted(list(starts) + [f for w in whole for f in w]), longest)
+
+    def split_wins(starts):  # (the split reading wins, the two leave as many steps unpaired)
+        steps = sorted(list(starts) + [f for w in whole for f in w])
+        left = len(starts) - 2 * len(_paired_events(starts, longest)) + sum(len(w) - 2 for w in whole)
+        left_split = len(steps) - 2 * len(_paired_events(steps, longest))
+        nested = any(a <= c and d <= b for a, b in _paired_events(starts, longest) for c, d in ends)
+        return left_split < left or left_split == left and nested, left_split == left
+
+    wins, even = split_wins(starts)
+    if even and not wins and len(hidden):
+        wins = split_wins(sorted(list(starts) + [int(h) for h in hidden]))[0]
+    return split if wins else pairs + ends
 
 
 def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: int, p: int) -> tuple | None:
-    """``(a, b)``, the steps ``a -> a + 1`` and ``b -> b + 1`` that swap joints ``j`` and ``p`` and swap them
-    back, when one break event (frames ``first .. last``, :func:`event_bounds`) holds a whole swap; else None.
+    """``(a, ..., b)``, the steps ``a -> a + 1`` and ``b -> b + 1`` that swap joints ``j`` and ``p`` and swap them
+    back, when one break event (frames ``first .. last``, :func:`event_bounds`) holds a whole swap, with the steps
+    between them that do so too (a one-frame swap beside another swap: three steps); else None.
 
     A swap of 1-4 frames breaks at frames at most 3 apart, which group into one event; paired with the next
     event it flagged the clean frames up to that one (a 4-frame swap of a waving forearm and a swap 1 s later
@@ -296,7 +315,9 @@ def _whole_swap(q: np.ndarray, mirrored: np.ndarray, first: int, last: int, j: i
 
     offs = [a for a in (first, first + 1) if a < last - 1 and both(a)]
     backs = [b for b in (last - 1, last) if offs and b > offs[0] and both(b)]
-    return (offs[0], backs[0]) if backs else None
+    if not backs:
+        return None
+    return (offs[0], *[m for m in range(offs[0] + 1, backs[0]) if both(m)], backs[0])
 
 
 def _swap_step(q: np.ndarray, mirrored: np.ndarray, f: int, j: int, ratio: float = 0.5, tries: int = 2) -> bool:

@@ -33,7 +33,8 @@ import numpy as np
 from ... import rotations as R
 from .swap_exchange import exchange_joins, parent_orientations, root_depths
 
-__all__ = ["EDGE_CLEAR", "EdgeSwap", "edge_swaps", "mirror_steps", "possible_swap_note", "unexplained"]
+__all__ = ["EDGE_CLEAR", "EdgeSwap", "edge_swaps", "mirror_steps", "possible_swap_note", "swap_step_events",
+           "unexplained"]
 
 #: the swapped side's mean digression (radians) must exceed this many times the other side's
 EDGE_CLEAR = 2.0
@@ -66,6 +67,20 @@ def mirror_steps(q: np.ndarray, mirrored: np.ndarray, j: int, p: int) -> np.ndar
         onto = R.geodesic_angle(q[1:, k], mirrored[:-1, k])
         ok &= onto < own
     return ok
+
+
+def swap_step_events(q: np.ndarray, mirrored: np.ndarray, breaks: np.ndarray, j: int, p: int):
+    """``(steps, (first, last))``: the steps ``a -> a + 1`` (sorted (n,) int) at which both joints ``j`` and ``p``
+    break (``breaks`` (F, J) bool, midpoint residuals over the break level, at frame ``a`` or ``a + 1``) and land on
+    their partner's mirrored rotation (:func:`mirror_steps`), and the events they make: each run of successive steps
+    one event, its first and last step (a step breaks at its two frames; a short swap's two steps a few frames
+    apart, one break event to the rules of two breaks, stay two here). ``q``, ``mirrored`` (F, J, 4)."""
+    both = breaks[:, j] & breaks[:, p]
+    steps = np.flatnonzero((both[:-1] | both[1:]) & mirror_steps(q, mirrored, j, p))
+    if len(steps) == 0:
+        return steps, (steps, steps)
+    cut = np.flatnonzero(np.diff(steps) > 1) + 1
+    return steps, (steps[np.concatenate([[0], cut])], steps[np.concatenate([cut - 1, [len(steps) - 1]])])
 
 
 def _mean(d: np.ndarray) -> float:
@@ -147,15 +162,9 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
         p = int(partner[j])
         if p <= j or not (use[j] and use[p]):
             continue
-        # a step a -> a + 1 breaks at frames a and a + 1 (its midpoint residuals), on both joints
-        both = breaks[:, j] & breaks[:, p]
-        steps = np.flatnonzero((both[:-1] | both[1:]) & mirror_steps(q, mirrored, j, p))
+        steps, events = swap_step_events(q, mirrored, breaks, j, p)
         if len(steps) == 0:
             continue
-        # each run of successive steps is one step's (a step breaks at its two frames); a short swap's two steps
-        # a few frames apart, one break event to the rules of two breaks, stay two here
-        cut = np.flatnonzero(np.diff(steps) > 1) + 1
-        events = (steps[np.concatenate([[0], cut])], steps[np.concatenate([cut - 1, [len(steps) - 1]])])
         free_p = np.asarray(swaps[:, j], dtype=bool)
         others = np.array(swaps, dtype=bool)
         others[:, [j, p]] = False
