@@ -742,8 +742,8 @@ def detect_prepared(an: Analysis, threshold: float = 0.5, *, progress: bool = Fa
     edge_cells, held = np.zeros((F, J), dtype=bool), np.zeros((F, J), dtype=bool)
     for e in edge_swaps(q, mirrored, resid, digression, sk.joint_names, sk.parents, motion.fps,
                         p.swap_jump_deg, p.swap_max_s, swaps, analysed):
-        at = e.end if e.start == 0 else e.start - 1  # its break: the step at -> at + 1
-        held[at : at + 2, [e.joint, e.partner]] = True
+        for at in e.breaks:  # its breaks: the steps at -> at + 1, paired with no other
+            held[at : at + 2, [e.joint, e.partner]] = True
         edge_cells[e.start : e.end + 1, [e.joint, e.partner]] = e.found
         if not e.found:
             notes.append(possible_swap_note(e, sk.joint_names))

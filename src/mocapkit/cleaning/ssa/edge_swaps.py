@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ... import rotations as R
-from .swap_exchange import exchange_joins, parent_orientations, root_depths
+from .swap_exchange import SWAP_JOIN_RATIO, exchange_joins, parent_orientations, root_depths
 
 __all__ = ["EDGE_CLEAR", "EdgeSwap", "edge_swaps", "mirror_steps", "possible_swap_note", "swap_step_events",
            "unexplained"]
@@ -43,9 +43,11 @@ EDGE_CLEAR = 2.0
 @dataclass(frozen=True)
 class EdgeSwap:
     """A one-break swap candidate of joints ``joint`` and ``partner`` over frames ``start .. end`` (inclusive),
-    one of which is the take's first or last frame; ``found``: the readings of the pair's breaks told it
-    (:func:`edge_swaps`; exchanged back by the repair), else a possible swap left as it came; ``inside`` and ``other`` the pair's mean digression (radians,
-    NaN where no neighbour word judges it) over the run and over the other side of its break."""
+    one of which is the take's first or last frame, or the swap inside such a run whose other break the rules of two
+    breaks missed (:func:`missed_break`); ``found``: the readings of the pair's breaks told it (:func:`edge_swaps`;
+    exchanged back by the repair), else a possible swap left as it came; ``inside`` and ``other`` the pair's mean
+    digression (radians, NaN where no neighbour word judges it) over the run from the edge and over the other side
+    of its break; ``breaks`` the steps ``a -> a + 1`` that bound the swap inside the take, in order."""
 
     joint: int
     partner: int
@@ -54,6 +56,7 @@ class EdgeSwap:
     found: bool
     inside: float
     other: float
+    breaks: tuple = ()
 
 
 def mirror_steps(q: np.ndarray, mirrored: np.ndarray, j: int, p: int) -> np.ndarray:
@@ -133,10 +136,11 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
     the rest of the take where it swaps none of them). ``found`` where the first reading leaves fewer of the swap
     steps' events unexplained (:func:`unexplained`), the other side of the break is longer than ``max_s`` and the
     run digresses more; or, the two leaving as many, where it digresses ``clear`` times as much. None where the
-    first leaves more, or where one of its swaps begins at the break (the break is that swap's). Not found where
-    a shorter run, from a frame inside it to the break, joins the take at both ends (a swap whose other break was
-    missed). A run not found is a possible swap where the second reading leaves its break unpaired, and none
-    otherwise (the rules of two breaks judge it). A break is read from one edge only, the first. ``rotations``
+    first leaves more, or where one of its swaps begins at the break (the break is that swap's). A found run
+    holding a shorter one, from a frame inside it to the break, that joins the take at both ends is that swap, its
+    other break missed (:func:`missed_break`). A run not found is a possible swap where the second reading leaves
+    its break unpaired, and none otherwise (the rules of two breaks judge it). A break is read from one edge only,
+    the first. ``rotations``
     (F, J, 4) and ``mirrored`` (the take's mirror image on its own skeleton,
     :func:`~mocapkit.cleaning.ssa.cues.mirrored_rotations`; None: none) unit quaternions; ``parents`` (J,) int,
     the skeleton's; ``joints`` (J,) bool the joints judged (None:
@@ -200,20 +204,47 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
                 if left > right:
                     break  # the run leaves a swap break unpaired that the rules of two breaks pair
                 found = told and (inside > beyond if left < right and not both_short else inside > clear * beyond)
-                # a shorter run from a step inside it to the break that joins at both ends: a swap whose other break
-                # was missed, the frames before it clean
-                found = found and not any(exchange_joins(q, mirrored, (j, p), *((k, hi) if entry else (lo, k)),
-                                                         frames=body) for k in range(lo + 1, hi))
-                if found or free_p[a] == free_p[a + 1]:  # possible where the rules of two breaks leave the break
-                    out.append(EdgeSwap(int(j), p, int(lo), int(hi - 1), found, inside, beyond))
+                k = missed_break(q, mirrored, body, breaks, (j, p), lo, hi, entry) if found else None
+                if k is not None:  # a swap whose other break was missed: the frames beside the edge are clean
+                    out.append(EdgeSwap(int(j), p, *((k, hi - 1) if entry else (lo, k - 1)), True, inside, beyond,
+                                        tuple(sorted((int(a), k - 1)))))
+                elif found or free_p[a] == free_p[a + 1]:  # possible where the rules of two breaks leave the break
+                    out.append(EdgeSwap(int(j), p, int(lo), int(hi - 1), found, inside, beyond, (int(a),)))
                 break
     return out
+
+
+def missed_break(q: np.ndarray, mirrored: np.ndarray, body: np.ndarray, breaks: np.ndarray, pair, lo: int, hi: int,
+                 entry: bool) -> int | None:
+    """The frame ``k`` inside a one-break swap's run ``lo .. hi - 1`` (from the take's first frame, ``entry``, or to
+    its last) at which a shorter run, ``k .. hi - 1`` (entry) or ``lo .. k - 1``, joins the take at both ends
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.exchange_joins`): a swap whose other break, the step ``k - 1 ->
+    k`` (two frames at least from the break), the rules of two breaks missed, the frames between it and the edge
+    clean. Where no such run joins, the frame of a step where both joints break (``breaks`` (F, J) bool, at
+    ``k - 1`` or ``k``) at which the exchange joins every track better than the input does (each joint's value and
+    its limb's orientation in the body, under once the input's angular acceleration there): a swap begun where the
+    two limbs pass each other breaks little (Bandai Namco run_normal_016 with ``corrupt.real_errors(kinds=("swap",),
+    seed=1)``: the forearms swapped over frames 10-26, the right one's value 7.0 against 13.6 deg/frame^2 into frame
+    10 exchanged, more than half).
+    The frame nearest the edge; None where there is none. ``q``, ``mirrored`` (F, J, 4) as :func:`edge_swaps`,
+    ``body`` (F, J, 4) their :func:`~mocapkit.cleaning.ssa.swap_exchange.parent_orientations`; ``pair`` the
+    joints."""
+    j, p = pair
+    # nearest the edge first; two frames at least between the step k - 1 -> k and the break, whose second
+    # differences the join at k would read
+    frames = range(lo + 1, hi - 2) if entry else range(hi - 1, lo + 2, -1)
+    stepped = [k for k in frames if (breaks[k - 1 : k + 1, j] & breaks[k - 1 : k + 1, p]).any()]
+    for ratio, tried in ((SWAP_JOIN_RATIO, frames), (1.0, stepped)):
+        for k in tried:
+            if exchange_joins(q, mirrored, pair, *((k, hi) if entry else (lo, k)), ratio=ratio, frames=body):
+                return int(k)
+    return None
 
 
 def possible_swap_note(swap: EdgeSwap, joint_names) -> str:
     """The line a detection's notes give a one-break swap the digression did not tell (:func:`edge_swaps`)."""
     edge = "first" if swap.start == 0 else "last"
-    at = swap.end if swap.start == 0 else swap.start - 1
+    at = swap.breaks[0]
     told = ("no neighbour word judges one side" if not (np.isfinite(swap.inside) and np.isfinite(swap.other)) else
             f"mean digression {np.degrees(swap.inside):.1f} deg over them, {np.degrees(swap.other):.1f} beyond")
     return (f"{joint_names[swap.joint]} and {joint_names[swap.partner]}: a possible left/right swap over frames "
