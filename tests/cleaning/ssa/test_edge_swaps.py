@@ -55,6 +55,39 @@ def test_a_swap_from_the_first_frame_is_found_and_exchanged_back_on_its_own_fram
     assert np.array_equal(out.rotations[~truth], bad.rotations[~truth])
 
 
+@pytest.mark.parametrize("name, pair, runs", [
+    # the run's shins over frames 0-4 and 10-16: read in time order, the clean frames 5-9 between were the swap
+    ("dataset-2_run_active_049.bvh", ("LowerLeg_L", "LowerLeg_R"), [(0, 5), (10, 17)]),
+    # dash_chimpira_001's thighs over frames 0-7 and 17-23: the clean frames 8-16 were the swap
+    ("dataset-1_dash_chimpira_001.bvh", ("UpperLeg_L", "UpperLeg_R"), [(0, 8), (17, 24)]),
+])
+def test_a_swap_from_the_first_frame_whose_break_a_fast_limb_hides_is_found_on_its_own_frames(name, pair, runs):
+    """Bundled Bandai Namco runs with a pair of legs swapped from the first frame and again a few frames later.
+    The running limbs move faster than the two lie apart, so at the first swap's break neither lands nearer its
+    partner's mirror image than its own step: no swap step there, and the break was paired in time order with the
+    second swap's entry. Read from the edge at the steps the rules of two breaks start or end a swap at, each swap
+    is found on its own frames and put back."""
+    take, bad, truth = _swapped(pair, runs, RUN.parent / name)
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, truth)
+    out = ssa.repair(bad, det)
+    assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
+
+
+def test_a_swap_from_the_first_frame_leaves_the_break_before_the_last_to_the_swap_it_ends():
+    """run_masculinity_001 with its feet swapped over frames 0-9 and 26-32: the first swap is found from the first
+    frame; read apart, the last edge took the second's exit (32 -> 33) for a possible swap over 33-58 and held it,
+    and the second swap went unfound. Read with the first swap found, that break ends the second: exactly the
+    swapped cells, both put back."""
+    take, bad, truth = _swapped(("Foot_L", "Foot_R"), [(0, 10), (26, 33)],
+                                RUN.parent / "dataset-1_run_masculinity_001.bvh")
+    det = ssa.detect(bad)
+    assert np.array_equal(det.swaps, truth)
+    assert not [n for n in det.notes if "possible left/right swap" in n]
+    out = ssa.repair(bad, det)
+    assert np.degrees(R.geodesic_angle(out.rotations[truth], take.rotations[truth])).max() < 1e-9
+
+
 def test_a_swap_whose_entry_the_limbs_passing_hides_is_found_on_its_own_frames():
     """The bundled Bandai Namco run_masculinity_001 with its feet swapped over frames 4-11. The feet pass each other
     at the entry (the right foot's value joins frame 4 exchanged at 11.6 against 23.2 deg/frame^2, over half), so

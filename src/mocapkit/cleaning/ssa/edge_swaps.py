@@ -124,9 +124,11 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
     For each left/right pair (:func:`~mocapkit.motion.mirror_pairs` of ``joint_names``), the first step
     ``a -> a + 1`` within ``max_s`` seconds of the take's first frame where both joints break by ``jump_deg`` or
     more (``resid`` (F, J) radians, :func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`) and step nearer their
-    partner's mirrored rotation than their own (:func:`mirror_steps`), with both limbs exchanged over ``0 .. a``
-    joining the take at that step (:func:`~mocapkit.cleaning.ssa.swap_exchange.exchange_joins`, each joint's value
-    and its limb's orientation in the body); likewise the last such step within ``max_s`` of the last frame, the run
+    partner's mirrored rotation than their own (:func:`mirror_steps`), or where ``swaps`` starts or ends a swap of
+    the pair (a limb moving faster than the two lie apart lands no nearer its partner's mirror image: the shins of
+    a run), with both limbs exchanged over ``0 .. a`` joining the take at that step
+    (:func:`~mocapkit.cleaning.ssa.swap_exchange.exchange_joins`, each joint's value and its limb's orientation in
+    the body); likewise the last such step within ``max_s`` of the last frame, the run
     ``a + 1 .. F - 1``. Two readings of the pair's breaks are compared: the run swapped, its break paired with no
     other (the rules of two breaks, :func:`~mocapkit.cleaning.ssa.cues.swaps_from_residuals` and
     :func:`~mocapkit.cleaning.ssa.swap_exchange.joined_swaps`, on the rest), against ``swaps`` (F, J) bool, what
@@ -140,7 +142,9 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
     holding a shorter one, from a frame inside it to the break, that joins the take at both ends is that swap, its
     other break missed (:func:`missed_break`). A run not found is a possible swap where the second reading leaves
     its break unpaired, and none otherwise (the rules of two breaks judge it). A break is read from one edge only,
-    the first. ``rotations``
+    the first; the swap found there is in both readings of the other edge (its break paired with no other: a swap
+    from the first frame and one to a break near the last, read apart, left the second's exit a break of its own
+    and the second unfound). ``rotations``
     (F, J, 4) and ``mirrored`` (the take's mirror image on its own skeleton,
     :func:`~mocapkit.cleaning.ssa.cues.mirrored_rotations`; None: none) unit quaternions; ``parents`` (J,) int,
     the skeleton's; ``joints`` (J,) bool the joints judged (None:
@@ -173,8 +177,14 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
         others = np.array(swaps, dtype=bool)
         others[:, [j, p]] = False
         judged = set()  # the breaks read from one edge already: not again from the other
+        # a swap found at the first edge: its cells and break frames in both readings of the other edge's
+        kept_edge, kept_held = np.zeros((F, J), dtype=bool), np.zeros((F, J), dtype=bool)
+        # the swap steps, and the steps the rules of two breaks start or end a swap at (a limb moving faster than
+        # the two lie apart lands no nearer its partner's mirror image)
+        tried_steps = np.union1d(steps, np.flatnonzero(free_p[1:] != free_p[:-1]))
         for entry in (True, False):
-            near = steps[steps + 1 <= longest] if entry else steps[F - 1 - steps <= longest][::-1]
+            near = (tried_steps[tried_steps + 1 <= longest] if entry else
+                    tried_steps[F - 1 - tried_steps <= longest][::-1])
             for a in near:
                 lo, hi = (0, a + 1) if entry else (a + 1, F)
                 if a in judged or hi - lo >= F or not exchange_joins(q, mirrored, (j, p), lo, hi, frames=body):
@@ -182,9 +192,8 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
                 judged.add(a)
                 # the other side of the break a swap as long as this one could be: only the digression tells
                 both_short = F - (hi - lo) <= longest
-                held = np.zeros((F, J), dtype=bool)
+                held, edge = kept_held.copy(), kept_edge.copy()
                 held[a : a + 2, [j, p]] = True
-                edge = np.zeros((F, J), dtype=bool)
                 edge[lo:hi, [j, p]] = True
                 taken = _pair_swaps(q, mirrored, resid, joint_names, partner, parents, fps, jump_deg, max_s,
                                     (j, p), held, edge, others)
@@ -210,6 +219,13 @@ def edge_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.nda
                                         tuple(sorted((int(a), k - 1)))))
                 elif found or free_p[a] == free_p[a + 1]:  # possible where the rules of two breaks leave the break
                     out.append(EdgeSwap(int(j), p, int(lo), int(hi - 1), found, inside, beyond, (int(a),)))
+                if found:
+                    e = out[-1]
+                    for b in e.breaks:
+                        kept_held[b : b + 2, [j, p]] = True
+                    kept_edge[e.start : e.end + 1, [j, p]] = True
+                    free_p = taken.copy()  # the second reading of the other edge: with this swap found
+                    free_p[lo : e.start] = free_p[e.end + 1 : hi] = False  # less the clean frames beside it
                 break
     return out
 
