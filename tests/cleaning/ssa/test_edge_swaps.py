@@ -60,6 +60,9 @@ def test_a_swap_from_the_first_frame_is_found_and_exchanged_back_on_its_own_fram
     ("dataset-2_run_active_049.bvh", ("LowerLeg_L", "LowerLeg_R"), [(0, 5), (10, 17)]),
     # dash_chimpira_001's thighs over frames 0-7 and 17-23: the clean frames 8-16 were the swap
     ("dataset-1_dash_chimpira_001.bvh", ("UpperLeg_L", "UpperLeg_R"), [(0, 8), (17, 24)]),
+    # bow_active_001's forearms over frames 0-6 and 10-16: the first's break and the second's entry one break
+    # event, held whole with the first's break (the clean frames 7-9 were the swap)
+    ("dataset-1_bow_active_001.bvh", ("LowerArm_L", "LowerArm_R"), [(0, 7), (10, 17)]),
 ])
 def test_a_swap_from_the_first_frame_whose_break_a_fast_limb_hides_is_found_on_its_own_frames(name, pair, runs):
     """Bundled Bandai Namco runs with a pair of legs swapped from the first frame and again a few frames later.

@@ -226,8 +226,9 @@ def swaps_from_residuals(resid, joint_names, fps, jump_deg, max_s, joints, rotat
     :meth:`~mocapkit.motion.Motion.mirror` rotations, F, J, 4) each break
     event must also look like a swap (:func:`_swap_step`). ``held`` (F, J)
     bool (None: none): the break frames of swaps with one break
-    (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`); an event holding
-    one on both joints of the pair is that swap's, paired with no other.
+    (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`), held on both
+    joints of the pair: that swap's, paired with no other
+    (:func:`~mocapkit.cleaning.ssa.events.pair_events`).
     """
     from ...motion import mirror_pairs
 

@@ -30,16 +30,18 @@ def event_bounds(frames: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
 def pair_events(breaks: np.ndarray, j: int, p: int, held: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The break events a left/right pair ``j``, ``p`` shares, as a label exchange makes them: ``(first, last)``
     (n,) int, the events (:func:`event_bounds`) of the frames where ``p`` breaks within a frame of a break of ``j``
-    (``breaks`` (F, J) bool), less those holding a ``held`` frame ((F, J) bool; None: none) on both joints (a swap
-    with one break, paired with no other). Empty where fewer than two such frames are."""
+    (``breaks`` (F, J) bool), less the ``held`` frames ((F, J) bool; None: none) held on both joints (the break of
+    a swap with one break, paired with no other). The frames of such an event beside them stay an event of their
+    own: the break of a swap from the take's first frame and the next swap's entry four frames later are one
+    event, and held whole it would take the second swap's entry with it (bundled bow_active_001, forearms swapped
+    over frames 0-6 and 10-16: read so, only the clean frames 7-9 are a swap). Empty where fewer than two such
+    frames are."""
     from scipy import ndimage
 
     frames = np.flatnonzero(ndimage.binary_dilation(breaks[:, j], structure=np.ones(3, dtype=bool)) & breaks[:, p])
+    if held is not None:
+        frames = frames[~(held[frames, j] & held[frames, p])]
     if len(frames) < 2:
         return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
     first, last, _ = event_bounds(frames)
-    if held is not None:
-        free = np.array([not (held[f : l + 1, j].any() and held[f : l + 1, p].any()) for f, l in zip(first, last)],
-                        dtype=bool)
-        first, last = first[free], last[free]
     return first, last

@@ -228,8 +228,8 @@ def joined_swaps(rotations: np.ndarray, mirrored: np.ndarray | None, resid: np.n
     (:func:`~mocapkit.cleaning.ssa.cues.midpoint_residuals`); ``partner`` (J,) int; ``parents`` (J,) int, the
     skeleton's; ``fps`` the take's rate; ``joints`` (J,) bool the joints judged (None: all); ``swaps`` (F, J)
     bool the swaps found already, whose runs are not judged again (None: none); ``held`` (F, J) bool the break
-    frames of swaps with one break (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`, None: none), whose events
-    are paired with no other.
+    frames of swaps with one break (:func:`~mocapkit.cleaning.ssa.edge_swaps.edge_swaps`, None: none), paired with
+    no other (:func:`~mocapkit.cleaning.ssa.events.pair_events`).
     """
     q = np.asarray(rotations, dtype=np.float64)
     F, J = q.shape[:2]
