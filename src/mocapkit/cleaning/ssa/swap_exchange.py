@@ -13,8 +13,8 @@ on PyMO's AV_8Walk_Meredith (HumanIK rig, inches) a swap of both arms over frame
 A run is exchanged only where the exchange joins the take: for both joints, at each end of the run that is
 not the take's end, the step between the exchanged value and the frame beside the run is under ``ratio``
 times the step the input makes there (the swap's own break), or the angular acceleration at the join, of each
-joint's value and of its limb's orientation in the body, under the input's (:func:`exchange_joins`).
-Elsewhere the run is left to the neighbour words.
+joint's value and of its limb's orientation in the body, under ``ratio`` times the input's
+(:func:`exchange_joins`). Elsewhere the run is left to the neighbour words.
 
 The same join finds the swaps whose breaks the limbs' own fast motion hides (:func:`joined_swaps`, part of
 detection): at 30 fps a running leg's steps reach what a swap's do, but exchanged back a swapped pair continues
@@ -89,12 +89,8 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
     time-reversed stretches); ``partner`` (J,) int each joint's left/right partner
     (:func:`~mocapkit.motion.mirror_pairs`). A run of frames both joints of a pair have flagged is exchanged
     when the exchange joins the take at both its ends (module docstring), or, with ``parents`` (J,) int (the
-    skeleton's), where both limbs exchanged join the take better than as they came at every end, each joint's
-    value and its limb's orientation in the body (:func:`exchange_joins` under once the input's, the pairs nearer
-    the root first, on the take with the runs exchanged so far): detection named the swap, and the exchange takes
-    its steps away; a swap begun where the two limbs pass each other breaks little, and its exchange joins at more
-    than ``ratio`` times that step (Bandai Namco run_masculinity_001, tests/data, its feet swapped over frames
-    4-11: the right foot's value 11.6 against 23.2 deg/frame^2 into frame 4). ``values`` (F, J, 4)
+    skeleton's), where both limbs exchanged join the take as :func:`joined_swaps` found it (:func:`exchange_joins`,
+    the pairs nearer the root first, on the take with the runs exchanged so far). ``values`` (F, J, 4)
     ``rotations`` with ``mirrored`` written into ``cells`` (F, J) bool, the cells exchanged.
     """
     q = np.asarray(rotations, dtype=np.float64)
@@ -115,7 +111,7 @@ def swap_exchanges(rotations: np.ndarray, mirrored: np.ndarray | None, swaps: np
             continue
         for a, b in true_runs(swaps[:, j] & swaps[:, p]):
             if all(_joins(q[:, k], mirrored[a : b + 1, k], a, b, ratio) for k in (j, p)) \
-                    or parents is not None and exchange_joins(values, mirrored, (j, p), a, b + 1, parents, 1.0):
+                    or parents is not None and exchange_joins(values, mirrored, (j, p), a, b + 1, parents, ratio):
                 cells[a : b + 1, [j, p]] = True
                 values[a : b + 1, [j, p]] = mirrored[a : b + 1, [j, p]]
     return values, cells
