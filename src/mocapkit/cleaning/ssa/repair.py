@@ -466,13 +466,13 @@ def _guard(motion: Motion, out_rot: np.ndarray, flags: np.ndarray, replaced: np.
                              limb_positions(motion, *pos_out, int(j)))
         tiny = negligible_runs(orig[:, j], out_rot[:, j], changed[:, j])  # (negligible.py)
         worse = guard_joint(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j], flags[:, j])
-        worse += [r for r in open_end_runs(changed[:, j], own_next[:, j])
-                  if r[:2] not in {w[:2] for w in worse}]  # a run at the take's edge: no join there to judge it by
-        worse += [r for r in held_guess_runs(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j] | own_next[:, j])
-                  if r[:2] not in {w[:2] for w in worse}]  # a freeze's guess: judged by the path its joins imply
-        worse += [r for r in limb if r[:2] not in {w[:2] for w in worse}]  # a half turn: judged by the limb's path
-        worse += [r for r in margin_runs(changed[:, j], replaced[:, j], undone[:, j], margin)
-                  if r[:2] not in {w[:2] for w in worse}]  # past an error the take's own motion bounds
+        # then, each run once with the first rule's reason: a run at the take's edge (no join there to judge it by),
+        # a freeze's guess (judged by the path its joins imply), a half turn (by the limb's path), a run past an
+        # error the take's own motion bounds
+        for more in (open_end_runs(changed[:, j], own_next[:, j]),
+                     held_guess_runs(orig[:, j], out_rot[:, j], changed[:, j], bridged[:, j] | own_next[:, j]), limb,
+                     margin_runs(changed[:, j], replaced[:, j], undone[:, j], margin)):
+            worse += [r for r in more if r[:2] not in {w[:2] for w in worse}]
         limb_failed += [(int(j), int(s), int(e)) for s, e, _ in limb]
         worse = [r for r in worse if r[:2] not in {t[:2] for t in tiny}]
         failed += [(int(j), int(s), int(e)) for s, e, _ in worse]
