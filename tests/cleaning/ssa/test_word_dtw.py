@@ -56,6 +56,36 @@ def test_word_dtw_path_obeys_the_appendix(n, extra, seed):
     assert (d, i, j) == pytest.approx(W.word_dtw(C, min_width=mw))
 
 
+def test_the_wrappers_share_the_dtw_signatures_of_the_pairs_and_the_warps(rng):
+    """word_dtw and word_dtw_path call the DTW kernel with the argument types the pairs and the warps pass from
+    inside their kernels (int64 origins, not literal 0s): two float64 signatures in all, each compiled (and cached
+    by the warm-up) once for the kernels and the wrappers."""
+    A, B = _random_quats(rng, (20, 3)), _random_quats(rng, (24, 3))
+    W.word_distance_pairs(A, B, np.ones(3, dtype=bool), 1, [0, 5], [0, 4])
+    W.warp_target_words(A, B, np.arange(3), 1, [0, 5], [0, 4])
+    C = rng.random((15, 20))
+    W.word_dtw(C)
+    W.word_dtw_path(C)
+    from numba import types
+
+    f64 = [sig for sig in W._word_dtw.signatures if sig[0].dtype == types.float64]
+    assert len(f64) == 2 and {isinstance(sig[-1], types.Array) for sig in f64} == {False, True}  # back table or not
+
+
+def test_pose_distances_of_writable_and_read_only_textures_share_one_signature(rng):
+    """detect's textures are read-only, a caller's own arrays writable: group_pose_distances passes both read-only,
+    so each twin has one machine code (the one the warm-up caches), and the distances do not depend on it."""
+    A = _random_quats(rng, (6, 3))
+    frozen = A.copy()
+    frozen.flags.writeable = False
+    groups = np.ones((1, 3), dtype=bool)
+    got = _both(W.group_pose_distances, A, A, groups, [1]) + _both(W.group_pose_distances, frozen, frozen, groups, [1])
+    assert all(np.array_equal(g, got[0]) for g in got)
+    for twin in (W._group_pose_distances.serial, W._group_pose_distances.parallel):
+        assert twin.signatures and not any(sig[0].mutable or sig[1].mutable for sig in twin.signatures)
+    assert A.flags.writeable  # the caller's array is left as it was
+
+
 def _random_quats(rng, shape):
     return R.quaternion_normalize(rng.normal(size=shape + (4,)))
 

@@ -129,7 +129,21 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
     if len(drop) != len(groups) or np.any((drop < 0) | (drop > 3)):
         raise ValueError("drop must give 0..3 for every group")
     members, offsets = pack_groups(groups)
+    A, B = read_only(A), read_only(B)
     return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
+
+
+def read_only(x: np.ndarray) -> np.ndarray:
+    """A read-only view of ``x``, no copy.
+
+    numba compiles a kernel once per argument type, and a read-only array is a
+    type of its own: the textures ``detect`` searches are read-only, a caller's
+    own arrays writable. Passing every array read-only gives one machine code
+    (the one the warm-up caches) for every caller.
+    """
+    view = x.view()
+    view.flags.writeable = False
+    return view
 
 
 def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
@@ -846,7 +860,8 @@ def _pairs(A, B, members, drop, src, tgt, N, M, min_width, max_run, dist, iend, 
         acc = np.empty((N, M, 7))
         ln = np.empty((N, M, 7), dtype=np.int64)
         _cost_block(A, B, members, drop, src[p], tgt[p], terms, C)
-        d, i, j = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln)
+        # int64 origins, not literal 0s (a numba type of their own): word_dtw's signature, one compile for both
+        d, i, j = _word_dtw(C, np.int64(0), np.int64(0), N, M, min_width, max_run, acc, ln)
         dist[p] = d
         iend[p] = i
         jend[p] = j
@@ -894,7 +909,8 @@ def _warp(S, T, okS, okT, members, rows, drop, src, tgt, N, M, min_width, max_ru
                     C[i, j] = costs[src[p] + i, tgt[p] + j]
         else:  # as group_pose_distances gives it, so the path is the one the search saw
             checked_cost_block(S, T, okS, okT, members, drop, src[p], tgt[p], DELTA_RTOL, terms, C)
-        d, bi, bj = _word_dtw(C, 0, 0, N, M, min_width, max_run, acc, ln, back)
+        # int64 origins, not literal 0s: word_dtw_path's signature, one compile for both
+        d, bi, bj = _word_dtw(C, np.int64(0), np.int64(0), N, M, min_width, max_run, acc, ln, back)
         iend[p] = bi
         if bi < 0:
             continue
