@@ -133,3 +133,34 @@ def test_low_rate_kernels_compile_what_a_30fps_models_calibration_calls():
     x, ctx = encode(take, ebf.layout)
     deep.denoise_channels(x, ctx, ebf, fps=take.fps)
     assert {n: set(k.signatures) for n, k in found.items()} == before
+
+
+def test_parallel_twins_compile_the_pose_distances_of_unseen_words(monkeypatch):
+    """The words a take alone leaves unseen are searched again in the take and its context (nearest_words against
+    the whole texture: group_pose_distances, the parallel twin on a long take). The bundled walk leaves none, so
+    parallel_twins calls that twin itself, with the argument types that search passes (read-only textures)."""
+    import dataclasses
+
+    from numba import typeof
+
+    from mocapkit import load, warmup
+    from mocapkit.cleaning import pipeline, ssa
+    from mocapkit.cleaning.ssa import neighbours, word_dtw
+    from mocapkit.cleaning.ssa.twins import forced
+
+    twin = word_dtw._group_pose_distances
+    kernel, seen = twin.parallel, []
+
+    def spy(*args):
+        seen.append(tuple(typeof(a) for a in args))
+        return kernel(*args)
+
+    monkeypatch.setattr(twin, "parallel", spy)
+    monkeypatch.setattr(pipeline, "clean", lambda *args, **kwargs: None)  # the twin alone: detect's others are cached
+    warmup.parallel_twins()
+    assert len(seen) == 1
+    walk = load(samples.path("12_walk.amc"))
+    an = ssa.prepare(walk[:240], [dataclasses.replace(walk[240:], name="rest")])
+    with forced("parallel"):
+        neighbours.nearest_words(an.source, an.texture, list(an.group_rows), an.words[:2], self_clip=0)
+    assert len(seen) == 2 and seen[1] == seen[0]

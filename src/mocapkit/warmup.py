@@ -62,17 +62,27 @@ def parallel_twins() -> None:
     kernels slowly (about two thirds of the warm-up), so :func:`warm_up` runs
     this in a second process beside the rest. The walk has no gaps here: the
     twins are detect's and repair's, and filling (the EBD, torch) is the other
-    process's work, which this one would only repeat.
+    process's work, which this one would only repeat. The pose-distance twin
+    of :func:`~mocapkit.cleaning.ssa.word_dtw.group_pose_distances` runs
+    only for words the take alone leaves unseen (searched again in the take
+    and its context), which the walk has none of: it is called directly, with
+    the argument types ``detect`` passes.
     """
     from .cleaning.pipeline import clean
     from .cleaning.ssa.twins import forced
     from .context import fit_context, resolve_context
+
+    from .cleaning.ssa.word_dtw import group_pose_distances
 
     take = broken_walk(gaps=False)
     context, _ = fit_context(take, resolve_context(None))
     with forced("parallel"):
         for ctx in (context, None):
             clean(take, ctx, steps="detect,repair")
+        # the words a take alone leaves unseen are searched in the take and its context, whose pose distances
+        # (the take's chunk against every context frame) run this twin parallel; the walk leaves none unseen
+        q = take.rotations[:4]
+        group_pose_distances(q, q, np.ones((1, q.shape[1]), dtype=bool), [0])
 
 
 def search_kernels() -> None:
