@@ -700,3 +700,23 @@ def test_olng_state_and_errors():
         OnlineLazyNeighborhoodGraph(clip_ids=np.zeros(4, int)).push([4], [0.0])
     with pytest.raises(ValueError, match="n must"):
         g.best_paths(-1)
+
+
+def test_read_only_and_writable_clip_ids_give_one_signature():
+    """A database opened from disk gives read-only clip ids, one built in memory writable: the online graph and
+    the offline costs pass both read-only, so each kernel has one machine code (the one the warm-up caches)."""
+    from mocapkit.search import lng
+
+    idx, dist = random_stream(np.random.default_rng(0), 6, 3, 20)
+    ids = np.repeat([0, 1], 10)
+    frozen = ids.copy()
+    frozen.flags.writeable = False
+    got = []
+    for clip_ids in (ids, frozen):
+        g = OnlineLazyNeighborhoodGraph(clip_ids, window=4)
+        pushed = [g.push(idx[t], dist[t]) for t in range(6)]
+        got.append(pushed + [online_lng_costs(idx, dist, clip_ids), lng_costs(idx, dist, clip_ids).cost])
+    assert all(np.array_equal(a, b, equal_nan=True) for a, b in zip(*got, strict=True))
+    for kernel in (lng._olng_push, lng._olng_scratch, lng._lng_kernel):  # clip ids are the fourth argument of each
+        assert kernel.signatures and not any(sig[3].mutable for sig in kernel.signatures)
+    assert ids.flags.writeable  # the caller's array is left as it was

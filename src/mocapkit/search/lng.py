@@ -65,14 +65,22 @@ _STEP_DI = np.array([s[1] for s in OLNG_STEPS], dtype=np.int64)
 
 
 def _check_clip_ids(clip_ids):
+    """(clip ids as a read-only contiguous int64 view, whether given): a database opened from disk gives read-only
+    ids, one built in memory writable, and numba compiles a kernel once per kind; read-only always, one machine code."""
     if clip_ids is None:
-        return np.zeros(0, dtype=np.int64), False
+        return _read_only(np.zeros(0, dtype=np.int64)), False
     c = np.asarray(clip_ids)
     if c.ndim != 1:
         raise ValueError(f"clip_ids: expected shape (N,), got {c.shape}")
     if c.size and not np.issubdtype(c.dtype, np.integer):
         raise ValueError(f"clip_ids: expected integers, got dtype {c.dtype}")
-    return np.ascontiguousarray(c, dtype=np.int64), True
+    return _read_only(np.ascontiguousarray(c, dtype=np.int64)), True
+
+
+def _read_only(x: np.ndarray) -> np.ndarray:
+    view = x.view()
+    view.flags.writeable = False
+    return view
 
 
 def _check_knn(knn_idx, knn_dist, ndim: int, n_db: int | None):
