@@ -24,7 +24,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["ensure_cache_dir", "writable"]
+import numpy as np
+
+__all__ = ["ensure_cache_dir", "read_only", "writable"]
 
 
 def writable(folder: Path) -> bool:
@@ -96,3 +98,15 @@ def ensure_cache_dir() -> str | None:
     if "numba" in sys.modules:
         sys.modules["numba"].config.CACHE_DIR = str(folder)
     return str(folder)
+
+
+def read_only(x: np.ndarray) -> np.ndarray:
+    """A read-only view of ``x``, no copy.
+
+    numba compiles a kernel once per argument type and caches each, and a read-only array is a type of its own: a
+    texture ``detect`` searches or a database opened from disk is read-only, a caller's own array writable. Passing
+    every array read-only gives one machine code (the one the warm-up caches) for every caller.
+    """
+    view = x.view()
+    view.flags.writeable = False
+    return view

@@ -39,6 +39,7 @@ from typing import NamedTuple
 import numba
 import numpy as np
 
+from ..kernel_cache import read_only
 from .matches import Match
 
 __all__ = [
@@ -68,19 +69,13 @@ def _check_clip_ids(clip_ids):
     """(clip ids as a read-only contiguous int64 view, whether given): a database opened from disk gives read-only
     ids, one built in memory writable, and numba compiles a kernel once per kind; read-only always, one machine code."""
     if clip_ids is None:
-        return _read_only(np.zeros(0, dtype=np.int64)), False
+        return read_only(np.zeros(0, dtype=np.int64)), False
     c = np.asarray(clip_ids)
     if c.ndim != 1:
         raise ValueError(f"clip_ids: expected shape (N,), got {c.shape}")
     if c.size and not np.issubdtype(c.dtype, np.integer):
         raise ValueError(f"clip_ids: expected integers, got dtype {c.dtype}")
-    return _read_only(np.ascontiguousarray(c, dtype=np.int64)), True
-
-
-def _read_only(x: np.ndarray) -> np.ndarray:
-    view = x.view()
-    view.flags.writeable = False
-    return view
+    return read_only(np.ascontiguousarray(c, dtype=np.int64)), True
 
 
 def _check_knn(knn_idx, knn_dist, ndim: int, n_db: int | None):

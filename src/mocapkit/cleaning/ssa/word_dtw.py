@@ -38,6 +38,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from ...kernel_cache import read_only
 from .dtw_rows import ROW_STATES, best_state, word_dtw_rows
 from .word_bounds import cheap_bounds
 from .ordering import kth_smallest, sort_by_key
@@ -131,19 +132,6 @@ def group_pose_distances(A: np.ndarray, B: np.ndarray, groups: np.ndarray, drop)
     members, offsets = pack_groups(groups)
     A, B = read_only(A), read_only(B)
     return _group_pose_distances.pick(A.shape[0] * B.shape[0])(A, B, members, offsets, drop)
-
-
-def read_only(x: np.ndarray) -> np.ndarray:
-    """A read-only view of ``x``, no copy.
-
-    numba compiles a kernel once per argument type, and a read-only array is a
-    type of its own: the textures ``detect`` searches are read-only, a caller's
-    own arrays writable. Passing every array read-only gives one machine code
-    (the one the warm-up caches) for every caller.
-    """
-    view = x.view()
-    view.flags.writeable = False
-    return view
 
 
 def self_pose_distances(A: np.ndarray, groups: np.ndarray, drop) -> np.ndarray:
