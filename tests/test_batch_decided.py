@@ -69,7 +69,7 @@ def test_info_on_the_record_says_its_output_was_decided(decided):
     assert code == 0, err
     said = " ".join(said.split())
     assert (f"decided its output was then written by clean --decisions with only the changes {decisions} accepts: "
-            "5 of 6 changes accepted, 1 rejected; ") in said and "; the counts here are the cleaning reviewed" in said
+            "4 of 5 changes accepted, 1 rejected; ") in said and "; the counts here are the cleaning reviewed" in said
     code, said, err = run("info", out / "b.clean.npz")  # the take not decided: no such row
     assert code == 0 and "\ndecided " not in said
 

@@ -49,7 +49,7 @@ def test_a_library_cleanings_report_keeps_the_digest_the_command_computes(review
     cli, lib = report_review(d / "cli.html"), report_review(d / "lib.html")
     assert cli["decisions"]["cleaning"]["sha256"] == lib["decisions"]["cleaning"]["sha256"]
     assert cli["decisions"]["cleaning"]["request"] == lib["decisions"]["cleaning"]["request"]
-    assert [c["id"] for c in cli["changes"]] == [c["id"] for c in lib["changes"]] and len(cli["changes"]) == 6
+    assert [c["id"] for c in cli["changes"]] == [c["id"] for c in lib["changes"]] and len(cli["changes"]) == 5
     assert lib["decisions"]["cleaning"]["record"] == str(d / "lib.clean.npz")
     assert lib["command"] == {"input": str(inp), "options": []}  # the page's command, as the command's page says it
 
@@ -90,7 +90,7 @@ def test_the_result_says_it_was_decided_as_the_command_does(reviewed, tmp_path):
     said = [line.strip() for line in stdout.split(": ", 1)[1].splitlines()]
     assert [line.strip() for line in got.summary()] == said
     assert got.summary()[0].startswith(f"{path} applied to the record {d / 'cli.clean.npz'} (nothing cleaned again): "
-                                       "4 of 6 changes accepted, 2 rejected")
+                                       "3 of 5 changes accepted, 2 rejected")
     assert got.decided is not None and sum("rejected repair:" in line for line in got.summary()) == 2
     assert not (got.repaired & ~D.accepted_cells(mocapkit.clean(inp, context="none"),
                                                  {c: D.REJECT for c in REJECT})).any()
