@@ -169,8 +169,7 @@ def unplaced_errors_cm(reference, result) -> dict:
     cm), ``"above_pelvis_is"`` (``"held still: global"`` or ``"in the pelvis's ground frame"``) and
     ``"above_pelvis"`` (their names) where the rig has joints above its pelvis. NaN frames are left out.
     """
-    from . import rotations as R
-    from .features import find_up_axis, root_frame
+    from .features import find_up_axis, normalize_positions
     from .motion import unit_scale_cm
     from .reconstruct._common import body_joints, held_above
     from .rigs import pelvis_index
@@ -180,16 +179,12 @@ def unplaced_errors_cm(reference, result) -> dict:
     ga, gb = reference.global_positions(), result.global_positions()
     up = find_up_axis(sk, ga)
 
-    def ground(m, g):  # positions (F, J, 3) in the pelvis's ground frame
-        heading, floor = root_frame(m, up)
-        return R.quaternion_rotate(R.quaternion_conjugate(heading)[:, None], g - floor[:, None])
-
     def rms(d) -> float:
         d2 = np.sum(d * d, axis=-1)
         d2 = d2[np.isfinite(d2)]
         return float(np.sqrt(d2.mean()) * scale) if d2.size else float("nan")
 
-    la, lb = ground(reference, ga), ground(result, gb)
+    la, lb = normalize_positions(reference, ga, up), normalize_positions(result, gb, up)  # the pelvis's ground frame
     p = pelvis_index(sk)
     out = {"pelvis_height_rms_cm": rms(la[:, p] - lb[:, p])}
     above = np.setdiff1d(np.arange(sk.num_joints), body_joints(sk))
